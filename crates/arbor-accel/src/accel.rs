@@ -1,0 +1,148 @@
+use std::fmt;
+use std::str::FromStr;
+
+use crate::{Counters, List, Primitives, Ray};
+
+/// What every acceleration structure answers: the candidates a ray may hit.
+///
+/// The caller's closure does the exact primitive test, so the structure never
+/// needs to know what a primitive is.
+pub trait Accelerator: Send + Sync {
+    /// Offers `hit` every primitive the ray may hit, nearest regions first.
+    /// `hit(prim, ray)` returns `Some(t)` when `prim` is hit at `t` within
+    /// `[ray.tmin, ray.tmax]`; traversal then shrinks `tmax` to `t`, so later
+    /// calls see the shrunk ray. The caller keeps whatever it needs of the
+    /// nearest hit. Every primitive whose exact hit lies within the final
+    /// interval is offered (each at most once for BVHs, possibly more than once
+    /// for spatial subdivision unless the structure mailboxes).
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>;
+
+    /// Whether any primitive is hit within `[ray.tmin, ray.tmax]`; stops at the
+    /// first `hit(prim, ray) == true`.
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool;
+
+    /// Size and shape of the structure.
+    fn stats(&self) -> AccelStats;
+}
+
+/// Size and shape of a built structure.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AccelStats {
+    /// Nodes (for the grid: cells).
+    pub nodes: usize,
+    /// Leaves (for the grid: non-empty cells).
+    pub leaves: usize,
+    /// Deepest leaf (root = 0).
+    pub max_depth: usize,
+    /// Heap and inline bytes of the structure, primitive references included.
+    pub memory_bytes: usize,
+    /// Surface area heuristic cost where it applies.
+    pub sah_cost: Option<f64>,
+}
+
+/// The acceleration structures, by the names users pick them with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum AccelKind {
+    /// Brute force (`list`).
+    List,
+}
+
+impl AccelKind {
+    /// Every kind, in the order tools list them.
+    pub const ALL: &'static [AccelKind] = &[AccelKind::List];
+
+    /// The name users type.
+    pub fn name(self) -> &'static str {
+        match self {
+            AccelKind::List => "list",
+        }
+    }
+
+    /// The structure used when the user names none.
+    pub const DEFAULT: AccelKind = AccelKind::List;
+}
+
+impl fmt::Display for AccelKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An accelerator name that is not one of [`AccelKind::ALL`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnknownAccel(pub String);
+
+impl fmt::Display for UnknownAccel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names: Vec<_> = AccelKind::ALL.iter().map(|k| k.name()).collect();
+        write!(
+            f,
+            "unknown accelerator '{}'; expected one of: {}",
+            self.0,
+            names.join(", ")
+        )
+    }
+}
+
+impl std::error::Error for UnknownAccel {}
+
+impl FromStr for AccelKind {
+    type Err = UnknownAccel;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        AccelKind::ALL
+            .iter()
+            .copied()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| UnknownAccel(s.to_string()))
+    }
+}
+
+/// Any of the structures, chosen at run time; dispatches statically inside.
+#[derive(Clone, Debug)]
+pub enum Accel {
+    /// Brute force.
+    List(List),
+}
+
+impl Accel {
+    /// Builds a structure of `kind` over `prims`.
+    pub fn build<P: Primitives + ?Sized>(kind: AccelKind, prims: &P) -> Self {
+        match kind {
+            AccelKind::List => Accel::List(List::build(prims)),
+        }
+    }
+}
+
+impl Accelerator for Accel {
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        match self {
+            Accel::List(a) => a.closest(ray, counters, hit),
+        }
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        match self {
+            Accel::List(a) => a.occluded(ray, counters, hit),
+        }
+    }
+
+    fn stats(&self) -> AccelStats {
+        match self {
+            Accel::List(a) => a.stats(),
+        }
+    }
+}

@@ -1,0 +1,31 @@
+//! # arbor-accel
+//!
+//! Ray casting building blocks that know nothing of scenes, shaders or files:
+//! rays, bounding boxes, a watertight ray/triangle test, and acceleration
+//! structures that index *any* set of primitives through the [`Primitives`]
+//! trait. The caller supplies the exact primitive test as a closure at query
+//! time, so the same structure serves triangle soups, analytic spheres or
+//! whole transformed instances.
+//!
+//! Every structure answers exactly what the brute-force [`List`] answers; they
+//! differ only in speed. Traversal runs in `f32`, conservatively: a box test
+//! never rejects a box that the ray touches in exact arithmetic (see
+//! [`Aabb::intersect`]), so a caller whose exact test runs in `f64` loses no hit
+//! as long as its primitive boxes enclose the primitives.
+
+mod aabb;
+mod accel;
+mod counters;
+mod list;
+mod primitives;
+mod ray;
+
+pub use aabb::Aabb;
+pub use accel::{Accel, AccelKind, AccelStats, Accelerator, UnknownAccel};
+pub use counters::{Counters, NoCounters, RayCounts};
+pub use list::List;
+pub use primitives::Primitives;
+pub use ray::Ray;
+
+/// The vector type of the public API (re-exported so users need not depend on glam).
+pub use glam::Vec3;

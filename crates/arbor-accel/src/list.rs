@@ -1,0 +1,54 @@
+use crate::{Accelerator, AccelStats, Counters, Primitives, Ray};
+
+/// Brute force: every primitive is tested against every ray. The reference
+/// that every other structure is tested against.
+#[derive(Clone, Debug, Default)]
+pub struct List {
+    count: u32,
+}
+
+impl List {
+    /// Indexes `prims` (only their number matters).
+    pub fn build<P: Primitives + ?Sized>(prims: &P) -> Self {
+        List {
+            count: u32::try_from(prims.len()).expect("more than 2^32 primitives"),
+        }
+    }
+}
+
+impl Accelerator for List {
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        for prim in 0..self.count {
+            counters.test();
+            if let Some(t) = hit(prim, &ray) {
+                ray.tmax = ray.tmax.min(t);
+            }
+        }
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        (0..self.count).any(|prim| {
+            counters.test();
+            hit(prim, ray)
+        })
+    }
+
+    fn stats(&self) -> AccelStats {
+        AccelStats {
+            nodes: 1,
+            leaves: 1,
+            max_depth: 0,
+            memory_bytes: std::mem::size_of::<Self>(),
+            sah_cost: None,
+        }
+    }
+}

@@ -1,0 +1,47 @@
+use crate::Aabb;
+
+/// A set of primitives an acceleration structure can index: all it needs is
+/// how many there are and their bounding boxes.
+///
+/// The boxes must enclose everything the caller's exact test can hit, or
+/// traversal may skip a hit.
+pub trait Primitives: Sync {
+    /// Number of primitives; they are identified by index `0..len()`.
+    fn len(&self) -> usize;
+
+    /// Whether there are none.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// A box enclosing primitive `index`.
+    fn bounds(&self, index: usize) -> Aabb;
+
+    /// A box enclosing the part of primitive `index` inside `clip`, or `None`
+    /// when no part of it lies inside. Spatial subdivision (grid, k-d tree)
+    /// uses this to place primitives only where they really are; the default,
+    /// the overlap of the primitive's box with `clip`, is always correct but
+    /// looser than an exact clip.
+    fn clipped_bounds(&self, index: usize, clip: &Aabb) -> Option<Aabb> {
+        let b = self.bounds(index).intersection(clip);
+        (!b.is_empty()).then_some(b)
+    }
+}
+
+impl Primitives for [Aabb] {
+    fn len(&self) -> usize {
+        <[Aabb]>::len(self)
+    }
+    fn bounds(&self, index: usize) -> Aabb {
+        self[index]
+    }
+}
+
+impl Primitives for Vec<Aabb> {
+    fn len(&self) -> usize {
+        <[Aabb]>::len(self)
+    }
+    fn bounds(&self, index: usize) -> Aabb {
+        self[index]
+    }
+}
