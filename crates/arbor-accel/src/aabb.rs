@@ -149,13 +149,17 @@ impl Aabb {
     ///
     /// Error bound: the exit distance is widened by [`SLAB_TFAR_SCALE`], so a
     /// box that the exact ray touches is never rejected because of rounding.
-    /// Zero direction components are handled by [`Ray::inv_dir`].
+    /// A zero direction component gives an infinite `inv_dir`, and
+    /// `0 * inf = NaN` when the origin lies exactly on that slab's plane: the
+    /// ray then runs inside the face's plane forever, so that slab is treated
+    /// as `(-inf, inf)`.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray, inv_dir: Vec3) -> Option<(f32, f32)> {
         let t0 = (self.min - ray.origin) * inv_dir;
         let t1 = (self.max - ray.origin) * inv_dir;
-        let near = t0.min(t1);
-        let far = t0.max(t1);
+        let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
+        let near = Vec3::select(on_plane, Vec3::NEG_INFINITY, t0.min(t1));
+        let far = Vec3::select(on_plane, Vec3::INFINITY, t0.max(t1));
         let t_enter = near.max_element().max(ray.tmin);
         let t_exit = (far.min_element() * SLAB_TFAR_SCALE).min(ray.tmax);
         (t_enter <= t_exit).then_some((t_enter, t_exit))
@@ -212,6 +216,8 @@ mod tests {
         assert_eq!(Aabb::EMPTY.union(&unit()), unit());
         assert_eq!(Aabb::EMPTY.surface_area(), 0.0);
         assert_eq!(unit().surface_area(), 6.0);
-        assert!(unit().intersection(&Aabb::new(Vec3::splat(2.0), Vec3::splat(3.0))).is_empty());
+        assert!(unit()
+            .intersection(&Aabb::new(Vec3::splat(2.0), Vec3::splat(3.0)))
+            .is_empty());
     }
 }

@@ -1,4 +1,4 @@
-use crate::{Accelerator, AccelStats, Counters, Primitives, Ray};
+use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Brute force: every primitive is tested against every ray. The reference
 /// that every other structure is tested against.

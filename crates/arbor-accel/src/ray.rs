@@ -28,21 +28,11 @@ impl Ray {
         }
     }
 
-    /// The per-component reciprocal of `dir` for [`crate::Aabb::intersect`].
-    ///
-    /// A zero component maps to `±f32::MAX` (sign kept) instead of `±inf`:
-    /// that avoids `0 * inf = NaN` when the origin lies exactly on a slab
-    /// plane, and the slab test stays conservative (a ray outside a slab gets
-    /// an entry distance of at least `|gap| * f32::MAX`, overflowing to `inf`
-    /// unless the gap is tiny, and a tiny gap only ever adds candidates).
+    /// The per-component reciprocal of `dir` for [`crate::Aabb::intersect`]
+    /// (infinite for zero components).
     #[inline]
     pub fn inv_dir(&self) -> Vec3 {
-        let r = self.dir.recip();
-        Vec3::select(
-            self.dir.cmpeq(Vec3::ZERO),
-            Vec3::splat(f32::MAX).copysign(self.dir),
-            r,
-        )
+        self.dir.recip()
     }
 
     /// The point at parameter `t`.
