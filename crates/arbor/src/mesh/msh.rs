@@ -1,0 +1,1 @@
+//! The Cornell `.msh` mesh format.
