@@ -8,6 +8,9 @@ use glam::{Vec2, Vec3};
 pub mod msh;
 pub mod obj;
 
+pub use msh::{load_msh, parse_msh};
+pub use obj::{load_obj, parse_obj, ObjMesh, ObjRule};
+
 /// An indexed triangle mesh as read from a file: positions and optional
 /// per-vertex normals and texture coordinates, all `f32` as the files store
 /// them.
@@ -65,3 +68,98 @@ impl fmt::Display for MeshError {
 }
 
 impl std::error::Error for MeshError {}
+
+/// Reads a mesh file for batch ray casting, choosing the reader by extension
+/// (case-insensitive): `.msh` is the Cornell format, `.obj` is read with
+/// [`ObjRule::Fan`] so that triangles are numbered as the ray/hit file
+/// interface (and Embree's `embree_trace`) number them.
+pub fn load_mesh_file(path: &Path) -> Result<MeshData, MeshError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("msh") => load_msh(path),
+        Some("obj") => load_obj(path, ObjRule::Fan).map(|m| m.mesh),
+        _ => Err(MeshError::file(
+            path,
+            "unknown mesh file type; expected a .msh or .obj file",
+        )),
+    }
+}
+
+/// Reads a whole text file. Bytes that are not UTF-8 become U+FFFD: they can
+/// only matter where a number is expected, and there they fail with a
+/// line-accurate error, while stray bytes in comments stay harmless.
+fn read_text(path: &Path) -> Result<String, MeshError> {
+    match std::fs::read(path) {
+        Ok(bytes) => Ok(match String::from_utf8(bytes) {
+            Ok(text) => text,
+            Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
+        }),
+        Err(e) => Err(MeshError::file(
+            path,
+            format!("cannot read the mesh file: {e}"),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `../shared/scenes/cornell-2010/TEST_B`, or `None` (after printing why)
+    /// when the shared data is absent and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
+    fn test_b() -> Option<PathBuf> {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/scenes/cornell-2010/TEST_B");
+        if dir.is_dir() {
+            return Some(dir);
+        }
+        assert!(
+            std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+            "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing",
+            dir.display()
+        );
+        eprintln!("skipping: shared test data {} is absent", dir.display());
+        None
+    }
+
+    #[test]
+    fn shared_msh_files_load() {
+        let Some(dir) = test_b() else { return };
+        let bunny = load_msh(&dir.join("bunny500.msh")).unwrap();
+        assert_eq!(bunny.positions.len(), 293);
+        assert_eq!(bunny.triangles.len(), 500);
+        assert!(bunny.normals.is_none());
+        let norms = load_msh(&dir.join("bunny500_norms.msh")).unwrap();
+        assert_eq!(norms.triangles.len(), 500);
+        let normals = norms.normals.expect("bunny500_norms has normals");
+        assert_eq!(normals.len(), norms.positions.len());
+        // The format document promises unit normals in the shipped files.
+        assert!(normals.iter().all(|n| (n.length() - 1.0).abs() < 1e-4));
+        let buddha = load_mesh_file(&dir.join("buddha100k.msh")).unwrap();
+        assert_eq!(buddha.positions.len(), 49950);
+        assert_eq!(buddha.triangles.len(), 100000);
+    }
+
+    #[test]
+    fn load_mesh_file_picks_by_extension() {
+        let dir = tempfile::tempdir().unwrap();
+        let obj = dir.path().join("q.OBJ");
+        std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+        // Fan rule: the quad becomes two triangles.
+        assert_eq!(load_mesh_file(&obj).unwrap().triangles.len(), 2);
+        let msh = dir.path().join("t.msh");
+        std::fs::write(
+            &msh,
+            "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n2\n",
+        )
+        .unwrap();
+        assert_eq!(load_mesh_file(&msh).unwrap().triangles, vec![[0, 1, 2]]);
+        let other = dir.path().join("t.ply");
+        std::fs::write(&other, "ply\n").unwrap();
+        let e = load_mesh_file(&other).unwrap_err();
+        assert!(e.message.contains(".msh or .obj"), "{e}");
+    }
+}
