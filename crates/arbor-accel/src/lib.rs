@@ -17,15 +17,25 @@ mod aabb;
 mod accel;
 mod counters;
 mod list;
+mod obb;
 mod primitives;
 mod ray;
+mod sphere;
+mod triangle;
+mod util;
 
 pub use aabb::Aabb;
 pub use accel::{Accel, AccelKind, AccelStats, Accelerator, UnknownAccel};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use list::List;
+pub use obb::Obb;
 pub use primitives::Primitives;
 pub use ray::Ray;
+pub use sphere::BoundingSphere;
+pub use triangle::{
+    clip_triangle_bounds, intersect_triangle, intersect_triangle_sheared, is_degenerate, RayShear,
+    TriangleHit, TriangleMesh,
+};
 
 /// The vector type of the public API (re-exported so users need not depend on glam).
 pub use glam::Vec3;

@@ -1,0 +1,405 @@
+//! Watertight ray/triangle intersection (Woop, Benthin and Wald, "Watertight
+//! Ray/Triangle Intersection", JCGT 2013) and an indexed triangle mesh that
+//! acceleration structures can index, with exact polygon clipping for spatial
+//! subdivision.
+
+use glam::{DVec3, Vec3};
+
+use crate::{Aabb, Primitives, Ray};
+
+/// Where a ray hits a triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Ray parameter of the hit.
+    pub t: f32,
+    /// Barycentric weight of the second vertex.
+    pub u: f32,
+    /// Barycentric weight of the third vertex; the hit point is
+    /// `(1 - u - v) p0 + u p1 + v p2`.
+    pub v: f32,
+}
+
+/// The ray, sheared and permuted so that it runs along +z from the origin.
+/// Computing it once per ray is what makes the test cheap for many triangles;
+/// computing it identically for every triangle is what makes it watertight.
+#[derive(Clone, Copy, Debug)]
+pub struct RayShear {
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+}
+
+impl RayShear {
+    /// The shear for `ray`'s direction.
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir;
+        let a = d.abs();
+        // The dominant axis becomes z so that the division below is by the
+        // largest component.
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        // Swapping keeps the winding, so the sign of the edge functions keeps
+        // meaning "inside" regardless of the direction's sign.
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let sz = 1.0 / d[kz];
+        RayShear {
+            kx,
+            ky,
+            kz,
+            sx: d[kx] * sz,
+            sy: d[ky] * sz,
+            sz,
+        }
+    }
+}
+
+/// Watertight, two-sided ray/triangle test accepting `ray.tmin <= t <= ray.tmax`.
+///
+/// Rays through a shared edge or vertex of two triangles hit at least one of
+/// them: each edge function depends only on the edge's two vertices and is
+/// exactly antisymmetric in them, and when it rounds to zero it is recomputed
+/// in `f64`, where the products of `f32` values are exact. Degenerate
+/// (zero-area) triangles and zero directions never hit.
+#[inline]
+pub fn intersect_triangle(ray: &Ray, p0: Vec3, p1: Vec3, p2: Vec3) -> Option<TriangleHit> {
+    intersect_triangle_sheared(ray, &RayShear::new(ray), p0, p1, p2)
+}
+
+/// [`intersect_triangle`] with the ray's shear computed by the caller.
+#[inline]
+pub fn intersect_triangle_sheared(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+) -> Option<TriangleHit> {
+    let a = p0 - ray.origin;
+    let b = p1 - ray.origin;
+    let c = p2 - ray.origin;
+    let (ax, ay) = (a[s.kx] - s.sx * a[s.kz], a[s.ky] - s.sy * a[s.kz]);
+    let (bx, by) = (b[s.kx] - s.sx * b[s.kz], b[s.ky] - s.sy * b[s.kz]);
+    let (cx, cy) = (c[s.kx] - s.sx * c[s.kz], c[s.ky] - s.sy * c[s.kz]);
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    let (u, v, w, det) = if u == 0.0 || v == 0.0 || w == 0.0 {
+        // An edge function that rounds to zero may have the wrong sign; the
+        // products of two f32 are exact in f64, so one rounding decides, and
+        // the rest of this rare path stays in f64 so no sign is lost to
+        // underflow.
+        let e = |px: f32, py: f32, qx: f32, qy: f32| {
+            f64::from(px) * f64::from(qy) - f64::from(py) * f64::from(qx)
+        };
+        let (u, v, w) = (e(cx, cy, bx, by), e(ax, ay, cx, cy), e(bx, by, ax, ay));
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        ((u * inv) as f32, (v * inv) as f32, (w * inv) as f32, 1.0f32)
+    } else {
+        // Two-sided: all edge functions must share a sign.
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        (u, v, w, u + v + w)
+    };
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let az = s.sz * a[s.kz];
+    let bz = s.sz * b[s.kz];
+    let cz = s.sz * c[s.kz];
+    let inv = 1.0 / det;
+    let t = (u * az + v * bz + w * cz) * inv;
+    if !(t >= ray.tmin && t <= ray.tmax) {
+        return None;
+    }
+    // The projected area can round to non-zero for a triangle that has no
+    // area at all; such triangles must never be hit. Only checked on a hit,
+    // where it is cheap relative to the caller's shading.
+    if is_degenerate(p0, p1, p2) {
+        return None;
+    }
+    Some(TriangleHit {
+        t,
+        u: v * inv,
+        v: w * inv,
+    })
+}
+
+/// Whether the triangle has zero area (coincident or collinear vertices), as
+/// decided by an `f64` cross product of its edges.
+pub fn is_degenerate(p0: Vec3, p1: Vec3, p2: Vec3) -> bool {
+    let (p0, p1, p2) = (p0.as_dvec3(), p1.as_dvec3(), p2.as_dvec3());
+    (p1 - p0).cross(p2 - p0) == DVec3::ZERO
+}
+
+/// An indexed triangle mesh. Triangle `i` has the vertices
+/// `vertices[triangles[i][0..3]]`; every index must be in range.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleMesh {
+    /// Vertex positions.
+    pub vertices: Vec<Vec3>,
+    /// Vertex indices, three per triangle.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriangleMesh {
+    /// A mesh from positions and index triples.
+    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
+        TriangleMesh {
+            vertices,
+            triangles,
+        }
+    }
+
+    /// The three vertices of triangle `i`.
+    #[inline]
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[i];
+        [
+            self.vertices[a as usize],
+            self.vertices[b as usize],
+            self.vertices[c as usize],
+        ]
+    }
+
+    /// The watertight test of `ray` against triangle `i`.
+    #[inline]
+    pub fn intersect(&self, i: usize, ray: &Ray) -> Option<TriangleHit> {
+        let [a, b, c] = self.triangle(i);
+        intersect_triangle(ray, a, b, c)
+    }
+}
+
+impl Primitives for TriangleMesh {
+    fn len(&self) -> usize {
+        self.triangles.len()
+    }
+
+    fn bounds(&self, index: usize) -> Aabb {
+        Aabb::from_points(self.triangle(index))
+    }
+
+    fn clipped_bounds(&self, index: usize, clip: &Aabb) -> Option<Aabb> {
+        clip_triangle_bounds(self.triangle(index), clip)
+    }
+}
+
+/// The box around the part of a triangle inside `clip`, or `None` when the
+/// triangle misses the box.
+///
+/// The triangle is clipped as a polygon against the six planes
+/// (Sutherland–Hodgman) in `f64`, against a box widened by a tiny margin so
+/// that rounding can only keep, never drop, a triangle that touches `clip`.
+/// The result is padded by the same margin, rounded outward to `f32` and
+/// intersected with `clip`, so it encloses the exact clipped polygon.
+/// Triangles with non-finite vertices fall back to the conservative overlap
+/// of their box with `clip`.
+pub fn clip_triangle_bounds(tri: [Vec3; 3], clip: &Aabb) -> Option<Aabb> {
+    let tb = Aabb::from_points(tri);
+    let overlap = tb.intersection(clip);
+    if overlap.is_empty() {
+        return None;
+    }
+    if !tri.iter().all(|p| p.is_finite()) || !clip.min.is_finite() || !clip.max.is_finite() {
+        return Some(overlap);
+    }
+    if clip.contains_box(&tb) {
+        return Some(tb);
+    }
+    // The clipping error of f64 is ~2^-50 of the largest magnitude involved;
+    // 2^-40 leaves a wide safety factor and is still far below f32 precision.
+    let scale = tri
+        .iter()
+        .fold(clip.min.abs().max(clip.max.abs()), |m, p| m.max(p.abs()))
+        .max_element() as f64;
+    let margin = scale * f64::from(2.0f32.powi(-40));
+    let lo = clip.min.as_dvec3() - DVec3::splat(margin);
+    let hi = clip.max.as_dvec3() + DVec3::splat(margin);
+
+    let mut poly = [DVec3::ZERO; 9];
+    let mut n = 3;
+    for (i, p) in tri.iter().enumerate() {
+        poly[i] = p.as_dvec3();
+    }
+    let mut tmp = [DVec3::ZERO; 9];
+    for axis in 0..3 {
+        for (plane, keep_above) in [(lo[axis], true), (hi[axis], false)] {
+            // Signed distance, positive on the kept side.
+            let dist = |p: DVec3| {
+                if keep_above {
+                    p[axis] - plane
+                } else {
+                    plane - p[axis]
+                }
+            };
+            let mut m = 0;
+            for i in 0..n {
+                let p = poly[i];
+                let q = poly[(i + 1) % n];
+                let (dp, dq) = (dist(p), dist(q));
+                if dp >= 0.0 {
+                    tmp[m] = p;
+                    m += 1;
+                }
+                if (dp >= 0.0) != (dq >= 0.0) {
+                    let s = dp / (dp - dq);
+                    let mut x = p + (q - p) * s;
+                    // Snap onto the plane: the crossing lies on it exactly.
+                    x[axis] = plane;
+                    tmp[m] = x;
+                    m += 1;
+                }
+            }
+            // A convex polygon clipped by a half-space gains at most one vertex.
+            n = m.min(9);
+            poly[..n].copy_from_slice(&tmp[..n]);
+            if n == 0 {
+                return None;
+            }
+        }
+    }
+    let mut bmin = DVec3::splat(f64::INFINITY);
+    let mut bmax = DVec3::splat(f64::NEG_INFINITY);
+    for p in &poly[..n] {
+        bmin = bmin.min(*p);
+        bmax = bmax.max(*p);
+    }
+    let bmin = round_down(bmin - DVec3::splat(margin));
+    let bmax = round_up(bmax + DVec3::splat(margin));
+    // Both the triangle's own box and `clip` enclose the exact clipped polygon.
+    let b = Aabb::new(bmin, bmax).intersection(&overlap);
+    (!b.is_empty()).then_some(b)
+}
+
+/// The largest `f32` vector not above `v`, per component.
+fn round_down(v: DVec3) -> Vec3 {
+    let f = |x: f64| {
+        let y = x as f32;
+        if f64::from(y) > x {
+            y.next_down()
+        } else {
+            y
+        }
+    };
+    Vec3::new(f(v.x), f(v.y), f(v.z))
+}
+
+/// The smallest `f32` vector not below `v`, per component.
+fn round_up(v: DVec3) -> Vec3 {
+    let f = |x: f64| {
+        let y = x as f32;
+        if f64::from(y) < x {
+            y.next_up()
+        } else {
+            y
+        }
+    };
+    Vec3::new(f(v.x), f(v.y), f(v.z))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ray(o: Vec3, d: Vec3) -> Ray {
+        Ray::new(o, d, 0.0, f32::INFINITY)
+    }
+
+    const P0: Vec3 = Vec3::new(0.0, 0.0, 0.0);
+    const P1: Vec3 = Vec3::new(1.0, 0.0, 0.0);
+    const P2: Vec3 = Vec3::new(0.0, 1.0, 0.0);
+
+    #[test]
+    fn hit_reports_t_and_barycentrics() {
+        let h = intersect_triangle(&ray(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z), P0, P1, P2).unwrap();
+        assert_eq!(h.t, 2.0);
+        assert!((h.u - 0.25).abs() < 1e-6 && (h.v - 0.5).abs() < 1e-6);
+        // Two-sided: from below as well.
+        let h = intersect_triangle(&ray(Vec3::new(0.25, 0.5, -3.0), Vec3::Z), P0, P1, P2).unwrap();
+        assert_eq!(h.t, 3.0);
+    }
+
+    #[test]
+    fn miss_and_interval() {
+        assert!(intersect_triangle(&ray(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z), P0, P1, P2).is_none());
+        let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.0, 0.5);
+        assert!(intersect_triangle(&r, P0, P1, P2).is_none());
+        let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 1.0, 1.0);
+        assert!(intersect_triangle(&r, P0, P1, P2).is_some());
+        let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 1.5, 9.0);
+        assert!(intersect_triangle(&r, P0, P1, P2).is_none());
+    }
+
+    #[test]
+    fn shared_edge_is_watertight() {
+        // Two triangles sharing the diagonal of the unit square; rays aimed
+        // exactly at the diagonal hit at least one.
+        let q = Vec3::new(1.0, 1.0, 0.0);
+        for i in 0..=100 {
+            let s = i as f32 / 100.0;
+            let target = Vec3::new(s, 1.0 - s, 0.0);
+            let o = Vec3::new(0.3, -0.7, 1.3);
+            let r = ray(o, target - o);
+            let a = intersect_triangle(&r, P1, P2, P0).is_some();
+            let b = intersect_triangle(&r, P2, P1, q).is_some();
+            assert!(a || b, "escaped at {s}");
+        }
+    }
+
+    #[test]
+    fn degenerate_never_hits() {
+        let r = ray(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z);
+        assert!(intersect_triangle(&r, P0, P1, Vec3::new(2.0, 0.0, 0.0)).is_none());
+        assert!(intersect_triangle(&r, P0, P0, P0).is_none());
+        let zero = Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::ZERO, 0.0, 1.0);
+        assert!(intersect_triangle(&zero, P0, P1, P2).is_none());
+    }
+
+    #[test]
+    fn clipping_is_exact_and_conservative() {
+        let tri = [P0, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
+        // The box [1,2]^2 x [-1,1] only holds the corner region x + y <= 2.
+        let clip = Aabb::new(Vec3::new(1.0, 1.0, -1.0), Vec3::new(2.0, 2.0, 1.0));
+        let b = clip_triangle_bounds(tri, &clip).unwrap();
+        assert_eq!(b.min, Vec3::new(1.0, 1.0, 0.0));
+        // Padding may add an ulp, never more.
+        assert!(b.max.cmple(Vec3::new(1.0000002, 1.0000002, 0.0)).all());
+        // Entirely beyond the hypotenuse: nothing remains.
+        let clip = Aabb::new(Vec3::new(1.2, 1.2, -1.0), Vec3::new(2.0, 2.0, 1.0));
+        assert!(clip_triangle_bounds(tri, &clip).is_none());
+        let clip = Aabb::new(Vec3::new(0.5, -1.0, -1.0), Vec3::new(1.0, 3.0, 1.0));
+        let b = clip_triangle_bounds(tri, &clip).unwrap();
+        assert_eq!(b.min, Vec3::new(0.5, 0.0, 0.0));
+        assert!(b.max.y >= 1.5 && b.max.y < 1.5001);
+    }
+
+    #[test]
+    fn mesh_primitives() {
+        let m = TriangleMesh::new(vec![P0, P1, P2], vec![[0, 1, 2]]);
+        assert_eq!(Primitives::len(&m), 1);
+        assert_eq!(m.bounds(0), Aabb::new(P0, Vec3::new(1.0, 1.0, 0.0)));
+        assert!(m
+            .intersect(0, &ray(Vec3::new(0.1, 0.1, 1.0), -Vec3::Z))
+            .is_some());
+    }
+}

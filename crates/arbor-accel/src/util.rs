@@ -1,0 +1,140 @@
+//! Helpers shared by the builders and traversals.
+
+use rayon::prelude::*;
+
+use crate::aabb::SLAB_TFAR_SCALE;
+use crate::{Aabb, Primitives};
+
+/// Relative widening that covers the three roundings of a slab distance
+/// `(plane - origin) * inv_dir` (see [`SLAB_TFAR_SCALE`]).
+const REL: f32 = SLAB_TFAR_SCALE - 1.0;
+
+/// A value at least as large as the exact quantity that `t` approximates
+/// with three roundings; infinities stay put.
+#[inline(always)]
+pub(crate) fn widen_up(t: f32) -> f32 {
+    t + t.abs() * REL
+}
+
+/// A value at most as large as the exact quantity that `t` approximates
+/// with three roundings; infinities stay put.
+#[inline(always)]
+pub(crate) fn widen_down(t: f32) -> f32 {
+    t - t.abs() * REL
+}
+
+/// The primitives a structure indexes, sorted into those with a usable box
+/// and those whose box is not finite.
+pub(crate) struct Prepared {
+    /// `(primitive, box)` for every primitive with a finite, non-empty box.
+    pub refs: Vec<(u32, Aabb)>,
+    /// Primitives with NaN or infinite bounds: no structure can place them,
+    /// so they are offered to every ray (conservative, never wrong).
+    pub unbounded: Vec<u32>,
+    /// Union of the boxes in `refs`.
+    pub bounds: Aabb,
+}
+
+/// Sorts primitives by the usability of their boxes. Empty boxes enclose
+/// nothing, so such primitives cannot be hit and are dropped.
+pub(crate) fn prepare<P: Primitives + ?Sized>(prims: &P) -> Prepared {
+    let n = u32::try_from(prims.len()).expect("more than 2^32 primitives");
+    let classified: Vec<(u32, Aabb, u8)> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let b = prims.bounds(i as usize);
+            let finite = b.min.is_finite() && b.max.is_finite();
+            let kind = if !finite {
+                // NaN or infinite: unknown extent.
+                2
+            } else if b.is_empty() {
+                0
+            } else {
+                1
+            };
+            (i, b, kind)
+        })
+        .collect();
+    let mut refs = Vec::with_capacity(classified.len());
+    let mut unbounded = Vec::new();
+    let mut bounds = Aabb::EMPTY;
+    for (i, b, kind) in classified {
+        match kind {
+            1 => {
+                bounds = bounds.union(&b);
+                refs.push((i, b));
+            }
+            2 => unbounded.push(i),
+            _ => {}
+        }
+    }
+    Prepared {
+        refs,
+        unbounded,
+        bounds,
+    }
+}
+
+/// Primitive ids already handed to the caller during one query, so that a
+/// primitive stored in several cells is tested at most once per ray.
+///
+/// Per call and on the stack, so concurrent queries share nothing: the first
+/// [`Mailbox::INLINE`] ids are kept in an array searched linearly (almost all
+/// rays stop there), later ones spill into a hash set.
+pub(crate) struct Mailbox {
+    inline: [u32; Mailbox::INLINE],
+    len: usize,
+    spill: Option<std::collections::HashSet<u32>>,
+}
+
+impl Mailbox {
+    /// Ids kept without allocating.
+    pub const INLINE: usize = 32;
+
+    #[inline(always)]
+    pub fn new() -> Self {
+        Mailbox {
+            inline: [u32::MAX; Mailbox::INLINE],
+            len: 0,
+            spill: None,
+        }
+    }
+
+    /// Records `id`; returns whether it was new.
+    #[inline]
+    pub fn insert(&mut self, id: u32) -> bool {
+        if self.inline[..self.len].contains(&id) {
+            return false;
+        }
+        if self.len < Mailbox::INLINE {
+            self.inline[self.len] = id;
+            self.len += 1;
+            return true;
+        }
+        self.spill.get_or_insert_with(Default::default).insert(id)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mailbox_remembers_beyond_inline() {
+        let mut m = Mailbox::new();
+        for i in 0..100 {
+            assert!(m.insert(i));
+        }
+        for i in 0..100 {
+            assert!(!m.insert(i));
+        }
+    }
+
+    #[test]
+    fn widening() {
+        assert!(widen_up(1.0) > 1.0 && widen_down(1.0) < 1.0);
+        assert!(widen_up(-1.0) > -1.0 && widen_down(-1.0) < -1.0);
+        assert_eq!(widen_up(f32::INFINITY), f32::INFINITY);
+        assert_eq!(widen_down(0.0), 0.0);
+    }
+}
