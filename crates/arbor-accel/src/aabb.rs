@@ -184,7 +184,7 @@ mod tests {
         let b = unit();
         let (t0, t1) = hits(&b, Vec3::new(-1.0, 0.5, 0.5), Vec3::X).unwrap();
         assert_eq!(t0, 1.0);
-        assert!(t1 >= 2.0 && t1 < 2.0001);
+        assert!((2.0..2.0001).contains(&t1));
         assert!(hits(&b, Vec3::new(-1.0, 1.5, 0.5), Vec3::X).is_none());
         assert!(hits(&b, Vec3::new(-1.0, 0.5, 0.5), -Vec3::X).is_none());
     }

@@ -33,7 +33,8 @@ impl BoundingSphere {
 
     /// Whether the sphere contains no point.
     pub fn is_empty(&self) -> bool {
-        !(self.radius >= 0.0)
+        // Written so that a NaN radius also counts as empty.
+        self.radius.is_nan() || self.radius < 0.0
     }
 
     /// The circumsphere of a box (empty for an empty box).

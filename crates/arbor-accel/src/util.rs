@@ -1,4 +1,5 @@
 //! Helpers shared by the builders and traversals.
+#![allow(dead_code)] // Used by the structures added next.
 
 use rayon::prelude::*;
 
