@@ -1,12 +1,329 @@
-//! `arbor trace`: batch ray casting against a triangle mesh.
+//! `arbor trace`: batch ray casting against a triangle mesh, speaking the ray
+//! and hit file interface of `shared/peers/FORMAT.md` so that its answers and
+//! speed can be compared with Embree's `embree_trace` ray for ray.
 
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use arbor::mesh::load_mesh_file;
+use arbor_accel::{
+    intersect_triangle_sheared, Accel, AccelKind, Accelerator, NoCounters, Ray, RayShear,
+    TriangleMesh, Vec3,
+};
 use clap::Args;
+use rayon::prelude::*;
+
+use crate::InputError;
+
+/// Size of one ray record: origin, tnear, direction, tfar, all `f32`.
+const RAY_BYTES: usize = 32;
+/// Size of one closest-hit record: t, triangle, u, v.
+const HIT_BYTES: usize = 16;
+/// The triangle index of a miss.
+const MISS: u32 = u32::MAX;
+/// Rays per rayon task: large enough that scheduling costs nothing next to
+/// tracing, small enough that both threads stay busy to the end.
+const RAYS_PER_TASK: usize = 256;
 
 /// Arguments of `arbor trace`.
 #[derive(Args, Debug)]
-pub struct TraceArgs {}
+pub struct TraceArgs {
+    /// Triangle mesh: a Cornell `.msh` file or a Wavefront `.obj` (polygons
+    /// split as fans, triangles numbered in file order).
+    #[arg(long, value_name = "FILE")]
+    pub mesh: PathBuf,
+    /// Rays: 32-byte little-endian records (origin, tnear, direction, tfar).
+    #[arg(long, value_name = "FILE")]
+    pub rays: PathBuf,
+    /// Where to write the answers: 16-byte closest-hit records (t, triangle,
+    /// u, v), or 1-byte occlusion answers with `--occluded`.
+    #[arg(long, value_name = "FILE")]
+    pub hits: Option<PathBuf>,
+    /// Answer "is anything between tnear and tfar?" instead of the closest hit.
+    #[arg(long)]
+    pub occluded: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub threads: Option<u32>,
+    /// Build and trace this many times; the best build and the median and
+    /// fastest trace are reported.
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeat: u32,
+    /// Acceleration structure (default: the library's default).
+    #[arg(long, value_name = "NAME")]
+    pub accel: Option<String>,
+}
+
+/// One closest-hit answer, as written to the hit file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Hit {
+    t: f32,
+    prim: u32,
+    u: f32,
+    v: f32,
+}
+
+impl Hit {
+    const NONE: Hit = Hit {
+        t: f32::INFINITY,
+        prim: MISS,
+        u: 0.0,
+        v: 0.0,
+    };
+}
 
 /// Runs `arbor trace`.
-pub fn run(_args: TraceArgs) -> anyhow::Result<()> {
-    anyhow::bail!("arbor trace is not implemented yet")
+pub fn run(args: TraceArgs) -> anyhow::Result<()> {
+    // Everything the user can get wrong is checked before the slow part.
+    let kind = match &args.accel {
+        Some(name) => name
+            .parse::<AccelKind>()
+            .map_err(|e| InputError(format!("--accel: {e}")))?,
+        None => AccelKind::DEFAULT,
+    };
+    let mesh = load_mesh_file(&args.mesh).map_err(|e| InputError(e.to_string()))?;
+    let mesh = TriangleMesh::new(mesh.positions, mesh.triangles);
+    let rays = read_rays(&args.rays)?;
+    let mut output = args.hits.as_deref().map(AtomicOutput::create).transpose()?;
+
+    let threads = match args.threads {
+        Some(n) => n as usize,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the worker threads")?;
+    let repeat = args.repeat as usize;
+
+    let (accel, build_ms) = pool.install(|| {
+        let mut best = f64::INFINITY;
+        let mut accel = None;
+        for _ in 0..repeat {
+            let start = Instant::now();
+            let built = Accel::build(kind, &mesh);
+            best = best.min(ms_since(start));
+            accel = Some(built);
+        }
+        (accel, best)
+    });
+    let Some(accel) = accel else {
+        anyhow::bail!("internal error: no accelerator was built");
+    };
+
+    let mut times = Vec::with_capacity(repeat);
+    let (answers, hits) = if args.occluded {
+        let mut occ = vec![0u8; rays.len()];
+        for _ in 0..repeat {
+            let start = Instant::now();
+            pool.install(|| trace_occluded(&accel, &mesh, &rays, &mut occ));
+            times.push(ms_since(start));
+        }
+        let hits = occ.iter().filter(|&&o| o != 0).count();
+        (occ, hits)
+    } else {
+        let mut found = vec![Hit::NONE; rays.len()];
+        for _ in 0..repeat {
+            let start = Instant::now();
+            pool.install(|| trace_closest(&accel, &mesh, &rays, &mut found));
+            times.push(ms_since(start));
+        }
+        let hits = found.iter().filter(|h| h.prim != MISS).count();
+        let mut bytes = Vec::with_capacity(found.len() * HIT_BYTES);
+        for h in &found {
+            bytes.extend_from_slice(&h.t.to_le_bytes());
+            bytes.extend_from_slice(&h.prim.to_le_bytes());
+            bytes.extend_from_slice(&h.u.to_le_bytes());
+            bytes.extend_from_slice(&h.v.to_le_bytes());
+        }
+        (bytes, hits)
+    };
+
+    if let Some(out) = output.take() {
+        out.finish(&answers)?;
+    }
+
+    times.sort_by(f64::total_cmp);
+    // The upper median for an even count, as embree_trace takes it.
+    let median = times[times.len() / 2];
+    let min = times[0];
+    let mrays = if median > 0.0 {
+        rays.len() as f64 / (median * 1e3)
+    } else {
+        0.0
+    };
+    println!(
+        "{{\"tracer\": \"arbor\", \"triangles\": {}, \"rays\": {}, \"hits\": {}, \"threads\": {}, \
+         \"query\": \"{}\", \"build_ms\": {:.3}, \"trace_ms_median\": {:.3}, \"trace_ms_min\": {:.3}, \
+         \"mrays_per_s\": {:.3}}}",
+        mesh.triangles.len(),
+        rays.len(),
+        hits,
+        pool.current_num_threads(),
+        if args.occluded { "occluded" } else { "closest" },
+        build_ms,
+        median,
+        min,
+        mrays
+    );
+    Ok(())
+}
+
+/// Milliseconds since `start`.
+fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// The closest hit of every ray, in parallel on the current pool.
+fn trace_closest(accel: &Accel, mesh: &TriangleMesh, rays: &[Ray], out: &mut [Hit]) {
+    out.par_iter_mut()
+        .zip(rays.par_iter())
+        .with_min_len(RAYS_PER_TASK)
+        .for_each(|(slot, ray)| *slot = closest(accel, mesh, ray));
+}
+
+/// The closest hit of one ray. The shear depends only on the direction, so it
+/// is computed once per ray rather than once per triangle.
+#[inline]
+fn closest(accel: &Accel, mesh: &TriangleMesh, ray: &Ray) -> Hit {
+    let shear = RayShear::new(ray);
+    let mut best = Hit::NONE;
+    accel.closest(ray, &mut NoCounters, |prim, r| {
+        let [a, b, c] = mesh.triangle(prim as usize);
+        let hit = intersect_triangle_sheared(r, &shear, a, b, c)?;
+        // Spatial subdivision may offer a triangle again, and a neighbour at
+        // a shared edge may tie; the first one found at the smallest t stays.
+        if best.prim == MISS || hit.t < best.t {
+            best = Hit {
+                t: hit.t,
+                prim,
+                u: hit.u,
+                v: hit.v,
+            };
+        }
+        Some(hit.t)
+    });
+    best
+}
+
+/// Whether each ray is blocked, in parallel on the current pool.
+fn trace_occluded(accel: &Accel, mesh: &TriangleMesh, rays: &[Ray], out: &mut [u8]) {
+    out.par_iter_mut()
+        .zip(rays.par_iter())
+        .with_min_len(RAYS_PER_TASK)
+        .for_each(|(slot, ray)| {
+            let shear = RayShear::new(ray);
+            let blocked = accel.occluded(ray, &mut NoCounters, |prim, r| {
+                let [a, b, c] = mesh.triangle(prim as usize);
+                intersect_triangle_sheared(r, &shear, a, b, c).is_some()
+            });
+            *slot = u8::from(blocked);
+        });
+}
+
+/// Reads a ray file: 32-byte little-endian records with no header.
+fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| InputError(format!("{}: cannot read the ray file: {e}", path.display())))?;
+    if bytes.len() % RAY_BYTES != 0 {
+        return Err(InputError(format!(
+            "{}: a ray file holds 32-byte records (origin, tnear, direction, tfar as \
+             little-endian f32), but its length {} is not a multiple of 32",
+            path.display(),
+            bytes.len()
+        ))
+        .into());
+    }
+    Ok(bytes.chunks_exact(RAY_BYTES).map(decode_ray).collect())
+}
+
+/// One ray record.
+fn decode_ray(record: &[u8]) -> Ray {
+    let f = |i: usize| {
+        let mut word = [0u8; 4];
+        word.copy_from_slice(&record[4 * i..4 * i + 4]);
+        f32::from_le_bytes(word)
+    };
+    Ray::new(
+        Vec3::new(f(0), f(1), f(2)),
+        Vec3::new(f(4), f(5), f(6)),
+        f(3),
+        f(7),
+    )
+}
+
+/// An output file written under a temporary name in the same folder and
+/// renamed into place when complete, so that a failure or interruption never
+/// leaves a partial file under the final name (a rename within one folder is
+/// atomic). The temporary file is removed if the output is dropped unfinished.
+struct AtomicOutput {
+    target: PathBuf,
+    temp: PathBuf,
+    file: Option<File>,
+}
+
+impl AtomicOutput {
+    /// Creates the temporary file at once, so an unwritable destination is
+    /// reported before any tracing is done.
+    fn create(target: &Path) -> anyhow::Result<Self> {
+        if target.is_dir() {
+            return Err(InputError(format!(
+                "{}: is a directory; expected an output file name",
+                target.display()
+            ))
+            .into());
+        }
+        let name = target
+            .file_name()
+            .ok_or_else(|| {
+                InputError(format!(
+                    "{}: expected an output file name",
+                    target.display()
+                ))
+            })?
+            .to_string_lossy();
+        let temp = target.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+        let file = File::create(&temp).map_err(|e| {
+            InputError(format!(
+                "{}: cannot create the output file: {e}",
+                target.display()
+            ))
+        })?;
+        Ok(AtomicOutput {
+            target: target.to_path_buf(),
+            temp,
+            file: Some(file),
+        })
+    }
+
+    /// Writes `bytes` and moves the file into place.
+    fn finish(mut self, bytes: &[u8]) -> anyhow::Result<()> {
+        let Some(file) = self.file.take() else {
+            anyhow::bail!("internal error: output already finished");
+        };
+        let mut w = BufWriter::new(file);
+        w.write_all(bytes)
+            .and_then(|()| w.flush())
+            .with_context(|| format!("cannot write {}", self.temp.display()))?;
+        drop(w);
+        std::fs::rename(&self.temp, &self.target).with_context(|| {
+            format!(
+                "cannot move {} to {}",
+                self.temp.display(),
+                self.target.display()
+            )
+        })?;
+        Ok(())
+    }
+}
+
+impl Drop for AtomicOutput {
+    fn drop(&mut self) {
+        // After a successful rename the temporary name no longer exists and
+        // this fails harmlessly.
+        let _ = std::fs::remove_file(&self.temp);
+    }
 }
