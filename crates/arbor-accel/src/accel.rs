@@ -1,7 +1,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::{Counters, List, Primitives, Ray};
+use crate::{Bvh, BvhBuilder, BvhParams, Counters, List, Primitives, Ray};
 
 /// What every acceleration structure answers: the candidates a ray may hit.
 ///
@@ -51,21 +51,55 @@ pub struct AccelStats {
 pub enum AccelKind {
     /// Brute force (`list`).
     List,
+    /// BVH split at the middle of the centroid bounds (`bvh-center`).
+    BvhCenter,
+    /// BVH split at the centroid median (`bvh-median`).
+    BvhMedian,
+    /// BVH by binned SAH (`bvh-sah`), the default.
+    BvhSah,
+    /// BVH by full-sweep SAH (`bvh-sweep`), the quality reference.
+    BvhSweep,
+    /// BVH by bottom-up PLOC clustering (`bvh-cluster`).
+    BvhCluster,
 }
 
 impl AccelKind {
     /// Every kind, in the order tools list them.
-    pub const ALL: &'static [AccelKind] = &[AccelKind::List];
+    pub const ALL: &'static [AccelKind] = &[
+        AccelKind::List,
+        AccelKind::BvhCenter,
+        AccelKind::BvhMedian,
+        AccelKind::BvhSah,
+        AccelKind::BvhSweep,
+        AccelKind::BvhCluster,
+    ];
 
     /// The name users type.
     pub fn name(self) -> &'static str {
         match self {
             AccelKind::List => "list",
+            AccelKind::BvhCenter => "bvh-center",
+            AccelKind::BvhMedian => "bvh-median",
+            AccelKind::BvhSah => "bvh-sah",
+            AccelKind::BvhSweep => "bvh-sweep",
+            AccelKind::BvhCluster => "bvh-cluster",
         }
     }
 
     /// The structure used when the user names none.
-    pub const DEFAULT: AccelKind = AccelKind::List;
+    pub const DEFAULT: AccelKind = AccelKind::BvhSah;
+
+    /// The BVH builder this kind names, if it is a BVH.
+    pub fn bvh_builder(self) -> Option<BvhBuilder> {
+        match self {
+            AccelKind::BvhCenter => Some(BvhBuilder::Center),
+            AccelKind::BvhMedian => Some(BvhBuilder::Median),
+            AccelKind::BvhSah => Some(BvhBuilder::BinnedSah),
+            AccelKind::BvhSweep => Some(BvhBuilder::SweepSah),
+            AccelKind::BvhCluster => Some(BvhBuilder::Ploc),
+            _ => None,
+        }
+    }
 }
 
 impl fmt::Display for AccelKind {
@@ -108,13 +142,35 @@ impl FromStr for AccelKind {
 pub enum Accel {
     /// Brute force.
     List(List),
+    /// Any of the BVHs.
+    Bvh(Bvh),
+}
+
+/// Parameters of every structure, for [`Accel::build_with`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AccelParams {
+    /// BVH builders.
+    pub bvh: BvhParams,
 }
 
 impl Accel {
     /// Builds a structure of `kind` over `prims`.
     pub fn build<P: Primitives + ?Sized>(kind: AccelKind, prims: &P) -> Self {
+        Self::build_with(kind, prims, &AccelParams::default())
+    }
+
+    /// Builds a structure of `kind` over `prims` with explicit parameters.
+    pub fn build_with<P: Primitives + ?Sized>(
+        kind: AccelKind,
+        prims: &P,
+        params: &AccelParams,
+    ) -> Self {
+        if let Some(b) = kind.bvh_builder() {
+            return Accel::Bvh(Bvh::build(prims, b, &params.bvh));
+        }
         match kind {
             AccelKind::List => Accel::List(List::build(prims)),
+            _ => unreachable!("every other kind is a BVH"),
         }
     }
 }
@@ -127,6 +183,7 @@ impl Accelerator for Accel {
     {
         match self {
             Accel::List(a) => a.closest(ray, counters, hit),
+            Accel::Bvh(a) => a.closest(ray, counters, hit),
         }
     }
 
@@ -137,12 +194,14 @@ impl Accelerator for Accel {
     {
         match self {
             Accel::List(a) => a.occluded(ray, counters, hit),
+            Accel::Bvh(a) => a.occluded(ray, counters, hit),
         }
     }
 
     fn stats(&self) -> AccelStats {
         match self {
             Accel::List(a) => a.stats(),
+            Accel::Bvh(a) => a.stats(),
         }
     }
 }

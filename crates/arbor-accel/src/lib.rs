@@ -15,6 +15,7 @@
 
 mod aabb;
 mod accel;
+mod bvh;
 mod counters;
 mod list;
 mod obb;
@@ -25,7 +26,8 @@ mod triangle;
 mod util;
 
 pub use aabb::Aabb;
-pub use accel::{Accel, AccelKind, AccelStats, Accelerator, UnknownAccel};
+pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
+pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use list::List;
 pub use obb::Obb;

@@ -44,12 +44,15 @@ pub(crate) fn prepare<P: Primitives + ?Sized>(prims: &P) -> Prepared {
         .into_par_iter()
         .map(|i| {
             let b = prims.bounds(i as usize);
+            let nan = b.min.is_nan() || b.max.is_nan();
             let finite = b.min.is_finite() && b.max.is_finite();
-            let kind = if !finite {
-                // NaN or infinite: unknown extent.
+            // NaN or infinite: unknown extent (2); empty (0); usable (1).
+            let kind = if nan {
                 2
             } else if b.is_empty() {
                 0
+            } else if !finite {
+                2
             } else {
                 1
             };

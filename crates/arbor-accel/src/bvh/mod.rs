@@ -1,0 +1,553 @@
+//! Bounding volume hierarchies: one node layout and traversal, five builders.
+//!
+//! Nodes live in one depth-first array of 32-byte [`BvhNode`]s: an interior
+//! node's left child directly follows it and its `offset` names the right
+//! child, so a node needs no second child pointer and the left child shares
+//! its cache line more often than not. Leaves name a contiguous run of the
+//! primitive index array.
+
+mod ploc;
+mod sweep;
+mod topdown;
+
+use glam::Vec3;
+
+use crate::util::{prepare, widen_up};
+use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
+
+/// Depth from which every builder stops optimising and splits by count, so
+/// that no tree is deeper than `FORCE_MEDIAN_DEPTH + 32` levels whatever the
+/// input and the fixed traversal stack always suffices.
+pub(crate) const FORCE_MEDIAN_DEPTH: usize = 30;
+
+/// Entries of the traversal stack: one per level at most.
+const STACK_SIZE: usize = 64;
+
+/// One node: its box, and either its right child (interior, `count == 0`;
+/// the left child is the next node) or its primitives
+/// `prim_indices[offset..offset + count]` (leaf, `count > 0`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
+pub struct BvhNode {
+    /// Lower corner of the box.
+    pub min: Vec3,
+    /// Right child (interior) or first primitive slot (leaf).
+    pub offset: u32,
+    /// Upper corner of the box.
+    pub max: Vec3,
+    /// Number of primitives; 0 for interior nodes.
+    pub count: u32,
+}
+
+const _: () = assert!(std::mem::size_of::<BvhNode>() == 32);
+
+impl BvhNode {
+    /// A leaf over `count` primitive slots from `first`.
+    pub(crate) fn leaf(b: &Aabb, first: usize, count: usize) -> Self {
+        BvhNode {
+            min: b.min,
+            offset: first as u32,
+            max: b.max,
+            count: count as u32,
+        }
+    }
+
+    /// An interior node whose right child is node `right`.
+    pub(crate) fn interior(b: &Aabb, right: usize) -> Self {
+        BvhNode {
+            min: b.min,
+            offset: right as u32,
+            max: b.max,
+            count: 0,
+        }
+    }
+
+    /// The node's box.
+    #[inline(always)]
+    pub fn aabb(&self) -> Aabb {
+        Aabb::new(self.min, self.max)
+    }
+
+    /// Whether the node is a leaf.
+    #[inline(always)]
+    pub fn is_leaf(&self) -> bool {
+        self.count > 0
+    }
+}
+
+/// How a [`Bvh`] is built.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BvhBuilder {
+    /// Top-down: split at the middle of the centroid box's largest axis.
+    Center,
+    /// Top-down: split into equal halves by count along the centroid box's
+    /// largest axis.
+    Median,
+    /// Top-down binned surface area heuristic over all three axes.
+    BinnedSah,
+    /// Top-down full-sweep SAH over presorted centroids: every split between
+    /// two primitives on every axis is evaluated. The quality reference.
+    SweepSah,
+    /// Bottom-up parallel locally-ordered clustering (PLOC).
+    Ploc,
+}
+
+/// Build parameters shared by the builders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BvhParams {
+    /// Center/median builders: nodes with at most this many primitives become
+    /// leaves. Default 4.
+    pub leaf_size: usize,
+    /// SAH-driven builders (binned, sweep, PLOC's leaf collapsing): the
+    /// largest leaf; below it the SAH decides whether to split. Default 8.
+    pub max_leaf_size: usize,
+    /// SAH cost of visiting a node, relative to `intersection_cost`.
+    /// Default 1.
+    pub traversal_cost: f32,
+    /// SAH cost of one primitive test. Default 1.
+    pub intersection_cost: f32,
+    /// Bins per axis of the binned SAH builder (clamped to 2..=64). Default 16.
+    pub bins: usize,
+    /// PLOC's nearest-neighbour search radius in Morton order. Default 16.
+    pub ploc_radius: usize,
+    /// Subtrees with at least this many primitives are built in parallel.
+    /// Results do not depend on it or on the thread count. Default 4096.
+    pub parallel_threshold: usize,
+}
+
+impl Default for BvhParams {
+    fn default() -> Self {
+        BvhParams {
+            leaf_size: 4,
+            max_leaf_size: 8,
+            traversal_cost: 1.0,
+            intersection_cost: 1.0,
+            bins: 16,
+            ploc_radius: 16,
+            parallel_threshold: 4096,
+        }
+    }
+}
+
+/// A primitive during the build: its box and id.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Ref {
+    pub b: Aabb,
+    pub id: u32,
+}
+
+impl Ref {
+    /// Centre of the box, halved before adding so huge boxes cannot overflow.
+    #[inline(always)]
+    pub fn centroid(&self) -> Vec3 {
+        self.b.min * 0.5 + self.b.max * 0.5
+    }
+}
+
+/// A bounding volume hierarchy over any [`Primitives`].
+#[derive(Clone, Debug, Default)]
+pub struct Bvh {
+    nodes: Vec<BvhNode>,
+    prims: Vec<u32>,
+    unbounded: Vec<u32>,
+    max_depth: usize,
+}
+
+impl Bvh {
+    /// Builds with `builder` and `params`. Primitives with empty boxes are
+    /// left out (they cannot be hit); those with NaN or infinite boxes are
+    /// offered to every ray.
+    pub fn build<P: Primitives + ?Sized>(
+        prims: &P,
+        builder: BvhBuilder,
+        params: &BvhParams,
+    ) -> Self {
+        let prep = prepare(prims);
+        let mut refs: Vec<Ref> = prep.refs.iter().map(|&(id, b)| Ref { b, id }).collect();
+        let mut bvh = Bvh {
+            unbounded: prep.unbounded,
+            ..Bvh::default()
+        };
+        if refs.is_empty() {
+            return bvh;
+        }
+        let (nodes, order, depth) = match builder {
+            BvhBuilder::Center => topdown::build(&topdown::Center, &mut refs, params),
+            BvhBuilder::Median => topdown::build(&topdown::Median, &mut refs, params),
+            BvhBuilder::BinnedSah => topdown::build(&topdown::Binned, &mut refs, params),
+            BvhBuilder::SweepSah => sweep::build(&refs, params),
+            BvhBuilder::Ploc => ploc::build(&refs, params),
+        };
+        bvh.nodes = nodes;
+        bvh.prims = order;
+        bvh.max_depth = depth;
+        bvh
+    }
+
+    /// The nodes, root first, depth-first.
+    pub fn nodes(&self) -> &[BvhNode] {
+        &self.nodes
+    }
+
+    /// Primitive ids in leaf order.
+    pub fn prim_indices(&self) -> &[u32] {
+        &self.prims
+    }
+
+    /// The SAH cost `(Σ_interior A(n)·c_t + Σ_leaf A(l)·c_i·|l|) / A(root)`
+    /// with surface areas `A`; `None` for an empty tree or a root without
+    /// finite positive area.
+    pub fn sah_cost(&self, traversal_cost: f64, intersection_cost: f64) -> Option<f64> {
+        let root = f64::from(self.nodes.first()?.aabb().surface_area());
+        if !(root > 0.0 && root.is_finite()) {
+            return None;
+        }
+        let sum: f64 = self
+            .nodes
+            .iter()
+            .map(|n| {
+                let a = f64::from(n.aabb().surface_area());
+                if n.is_leaf() {
+                    a * intersection_cost * f64::from(n.count)
+                } else {
+                    a * traversal_cost
+                }
+            })
+            .sum();
+        Some(sum / root)
+    }
+}
+
+/// The ray used for box tests: `tmax` widened by the slab test's rounding
+/// bound, so that a box entered at the current closest hit (up to the
+/// rounding of the entry distance) is never culled.
+#[inline(always)]
+fn cull_ray(ray: &Ray) -> Ray {
+    Ray {
+        tmax: widen_up(ray.tmax),
+        ..*ray
+    }
+}
+
+impl Accelerator for Bvh {
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        for &p in &self.unbounded {
+            counters.test();
+            if let Some(t) = hit(p, &ray) {
+                ray.tmax = ray.tmax.min(t);
+            }
+        }
+        let Some(root) = self.nodes.first() else {
+            return;
+        };
+        let inv = ray.inv_dir();
+        if root.aabb().intersect(&cull_ray(&ray), inv).is_none() {
+            return;
+        }
+        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        let mut sp = 0;
+        let mut node = 0usize;
+        loop {
+            counters.node();
+            let n = &self.nodes[node];
+            if n.is_leaf() {
+                let first = n.offset as usize;
+                for &p in &self.prims[first..first + n.count as usize] {
+                    counters.test();
+                    if let Some(t) = hit(p, &ray) {
+                        ray.tmax = ray.tmax.min(t);
+                    }
+                }
+            } else {
+                let (l, r) = (node + 1, n.offset as usize);
+                let wide = cull_ray(&ray);
+                let hl = self.nodes[l].aabb().intersect(&wide, inv);
+                let hr = self.nodes[r].aabb().intersect(&wide, inv);
+                match (hl, hr) {
+                    (Some((tl, _)), Some((tr, _))) => {
+                        // Nearest child first; the other waits with its entry
+                        // distance so it can be culled once a closer hit is known.
+                        let (near, far, tfar) = if tl <= tr { (l, r, tr) } else { (r, l, tl) };
+                        stack[sp] = (far as u32, tfar);
+                        sp += 1;
+                        node = near;
+                        continue;
+                    }
+                    (Some(_), None) => {
+                        node = l;
+                        continue;
+                    }
+                    (None, Some(_)) => {
+                        node = r;
+                        continue;
+                    }
+                    (None, None) => {}
+                }
+            }
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                let (nd, tenter) = stack[sp];
+                if tenter <= widen_up(ray.tmax) {
+                    node = nd as usize;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        for &p in &self.unbounded {
+            counters.test();
+            if hit(p, ray) {
+                return true;
+            }
+        }
+        let Some(root) = self.nodes.first() else {
+            return false;
+        };
+        let inv = ray.inv_dir();
+        let wide = cull_ray(ray);
+        if root.aabb().intersect(&wide, inv).is_none() {
+            return false;
+        }
+        let mut stack = [0u32; STACK_SIZE];
+        let mut sp = 0;
+        let mut node = 0usize;
+        loop {
+            counters.node();
+            let n = &self.nodes[node];
+            if n.is_leaf() {
+                let first = n.offset as usize;
+                for &p in &self.prims[first..first + n.count as usize] {
+                    counters.test();
+                    if hit(p, ray) {
+                        return true;
+                    }
+                }
+            } else {
+                let (l, r) = (node + 1, n.offset as usize);
+                let hl = self.nodes[l].aabb().intersect(&wide, inv).is_some();
+                let hr = self.nodes[r].aabb().intersect(&wide, inv).is_some();
+                match (hl, hr) {
+                    (true, true) => {
+                        stack[sp] = r as u32;
+                        sp += 1;
+                        node = l;
+                        continue;
+                    }
+                    (true, false) => {
+                        node = l;
+                        continue;
+                    }
+                    (false, true) => {
+                        node = r;
+                        continue;
+                    }
+                    (false, false) => {}
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            node = stack[sp] as usize;
+        }
+    }
+
+    fn stats(&self) -> AccelStats {
+        AccelStats {
+            nodes: self.nodes.len(),
+            leaves: self.nodes.iter().filter(|n| n.is_leaf()).count(),
+            max_depth: self.max_depth,
+            memory_bytes: std::mem::size_of::<Self>()
+                + self.nodes.len() * std::mem::size_of::<BvhNode>()
+                + (self.prims.len() + self.unbounded.len()) * 4,
+            sah_cost: self.sah_cost(1.0, 1.0),
+        }
+    }
+}
+
+/// Appends a subtree built into its own vector (for parallel builds) to
+/// `out`, shifting its interior nodes' child indices; leaf offsets are
+/// global already.
+pub(crate) fn append_subtree(out: &mut Vec<BvhNode>, sub: Vec<BvhNode>) {
+    let base = out.len() as u32;
+    out.extend(sub.into_iter().map(|mut n| {
+        if !n.is_leaf() {
+            n.offset += base;
+        }
+        n
+    }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{List, NoCounters, RayCounts, TriangleMesh};
+
+    fn grid_mesh(n: usize) -> TriangleMesh {
+        // A wavy height field of 2 n^2 triangles.
+        let mut v = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+                v.push(Vec3::new(x, y, 0.1 * (7.0 * x).sin() * (5.0 * y).cos()));
+            }
+        }
+        let mut t = Vec::new();
+        let w = (n + 1) as u32;
+        for j in 0..n as u32 {
+            for i in 0..n as u32 {
+                let a = j * w + i;
+                t.push([a, a + 1, a + w]);
+                t.push([a + 1, a + w + 1, a + w]);
+            }
+        }
+        TriangleMesh::new(v, t)
+    }
+
+    fn closest<A: Accelerator>(a: &A, m: &TriangleMesh, r: &Ray) -> Option<(f32, u32)> {
+        let mut best = None;
+        a.closest(r, &mut NoCounters, |p, ray| {
+            let h = m.intersect(p as usize, ray)?;
+            best = Some((h.t, p));
+            Some(h.t)
+        });
+        best
+    }
+
+    const BUILDERS: [BvhBuilder; 5] = [
+        BvhBuilder::Center,
+        BvhBuilder::Median,
+        BvhBuilder::BinnedSah,
+        BvhBuilder::SweepSah,
+        BvhBuilder::Ploc,
+    ];
+
+    #[test]
+    fn every_builder_matches_list() {
+        let m = grid_mesh(24);
+        let list = List::build(&m);
+        for b in BUILDERS {
+            let bvh = Bvh::build(&m, b, &BvhParams::default());
+            let s = bvh.stats();
+            assert!(s.leaves * 2 - 1 == s.nodes, "{b:?}");
+            assert_eq!(bvh.prim_indices().len(), m.triangles.len());
+            for k in 0..200 {
+                let f = k as f32;
+                let o = Vec3::new((f * 0.13).fract(), (f * 0.29).fract(), 1.0);
+                let d = Vec3::new((f * 0.7).sin() * 0.3, (f * 0.3).cos() * 0.3, -1.0);
+                let r = Ray::new(o, d, 0.0, f32::INFINITY);
+                assert_eq!(
+                    closest(&bvh, &m, &r).map(|h| h.0),
+                    closest(&list, &m, &r).map(|h| h.0),
+                    "{b:?} ray {k}"
+                );
+                let test = |p: u32, ray: &Ray| m.intersect(p as usize, ray).is_some();
+                let ob = bvh.occluded(&r, &mut NoCounters, test);
+                let ol = list.occluded(&r, &mut NoCounters, test);
+                assert_eq!(ob, ol);
+            }
+        }
+    }
+
+    #[test]
+    fn sah_quality_and_culling() {
+        let m = grid_mesh(40);
+        let p = BvhParams::default();
+        let sweep = Bvh::build(&m, BvhBuilder::SweepSah, &p)
+            .stats()
+            .sah_cost
+            .unwrap();
+        let binned = Bvh::build(&m, BvhBuilder::BinnedSah, &p)
+            .stats()
+            .sah_cost
+            .unwrap();
+        let ploc = Bvh::build(&m, BvhBuilder::Ploc, &p)
+            .stats()
+            .sah_cost
+            .unwrap();
+        assert!(binned <= sweep * 1.05, "binned {binned} sweep {sweep}");
+        assert!(ploc <= sweep * 1.3, "ploc {ploc} sweep {sweep}");
+        let bvh = Bvh::build(&m, BvhBuilder::BinnedSah, &p);
+        let mut c = RayCounts::default();
+        let r = Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z, 0.0, f32::INFINITY);
+        bvh.closest(&r, &mut c, |i, ray| {
+            m.intersect(i as usize, ray).map(|h| h.t)
+        });
+        assert!(c.tests < 40, "{c:?}");
+    }
+
+    #[test]
+    fn parallel_build_is_deterministic() {
+        let m = grid_mesh(60);
+        for b in BUILDERS {
+            let seq = BvhParams {
+                parallel_threshold: usize::MAX,
+                ..BvhParams::default()
+            };
+            let par = BvhParams {
+                parallel_threshold: 64,
+                ..BvhParams::default()
+            };
+            let a = Bvh::build(&m, b, &seq);
+            let c = Bvh::build(&m, b, &par);
+            let one = rayon::ThreadPoolBuilder::new()
+                .num_threads(1)
+                .build()
+                .unwrap();
+            let d = one.install(|| Bvh::build(&m, b, &par));
+            assert_eq!(a.nodes(), c.nodes(), "{b:?}");
+            assert_eq!(a.prim_indices(), c.prim_indices(), "{b:?}");
+            assert_eq!(c.nodes(), d.nodes(), "{b:?}");
+        }
+    }
+
+    #[test]
+    fn empty_and_degenerate_inputs() {
+        let none: Vec<Aabb> = Vec::new();
+        let odd = vec![
+            Aabb::EMPTY,
+            Aabb::new(Vec3::splat(f32::NAN), Vec3::ONE),
+            Aabb::new(Vec3::splat(f32::NEG_INFINITY), Vec3::ONE),
+            Aabb::new(Vec3::ONE, Vec3::ONE),
+            Aabb::new(Vec3::ONE, Vec3::ONE),
+            Aabb::new(Vec3::splat(-3e38), Vec3::splat(3e38)),
+        ];
+        let same = vec![Aabb::new(Vec3::ZERO, Vec3::ONE); 100];
+        for b in BUILDERS {
+            let e = Bvh::build(&none, b, &BvhParams::default());
+            let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0);
+            assert!(!e.occluded(&r, &mut NoCounters, |_, _| true));
+            let o = Bvh::build(&odd, b, &BvhParams::default());
+            let mut seen = Vec::new();
+            let r = Ray::new(Vec3::ZERO, Vec3::ONE, 0.0, f32::INFINITY);
+            o.closest(&r, &mut NoCounters, |p, _| {
+                seen.push(p);
+                None
+            });
+            seen.sort();
+            assert_eq!(seen, vec![1, 2, 3, 4, 5], "{b:?}");
+            let s = Bvh::build(&same, b, &BvhParams::default());
+            assert!(s.stats().max_depth <= FORCE_MEDIAN_DEPTH + 32);
+            let mut n = 0;
+            s.closest(&r, &mut NoCounters, |_, _| {
+                n += 1;
+                None
+            });
+            assert_eq!(n, 100);
+        }
+    }
+}
