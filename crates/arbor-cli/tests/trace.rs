@@ -401,3 +401,113 @@ fn failed_run_keeps_an_existing_output_intact() {
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(std::fs::read(&hits).unwrap(), b"previous");
 }
+
+/// `../shared/scenes/cornell-2010/TEST_B/NAME`, or `None` (after printing why)
+/// when the shared data is absent and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
+fn shared_mesh(name: &str) -> Option<PathBuf> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/scenes/cornell-2010/TEST_B")
+        .join(name);
+    if path.is_file() {
+        return Some(path);
+    }
+    assert!(
+        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing",
+        path.display()
+    );
+    eprintln!("skipping: shared test data {} is absent", path.display());
+    None
+}
+
+/// Deterministic rays from a sphere around `mesh` towards points inside its
+/// bounding box, some with a short `tfar`, so that hits, misses and clipped
+/// rays all occur.
+fn rays_around(mesh: &Path, n: usize) -> Vec<Vec<u8>> {
+    let m = arbor::mesh::load_msh(mesh).unwrap();
+    let (lo, hi) = m.positions.iter().fold(
+        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        |(mut lo, mut hi), p| {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+            (lo, hi)
+        },
+    );
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        // xorshift64*: cheap, deterministic, good enough to scatter rays.
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        (state.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let centre: Vec<f32> = (0..3).map(|k| 0.5 * (lo[k] + hi[k])).collect();
+    let radius = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max) * 2.0;
+    (0..n)
+        .map(|i| {
+            let dir: [f32; 3] = std::array::from_fn(|_| next() * 2.0 - 1.0);
+            let len = dir.iter().map(|d| d * d).sum::<f32>().sqrt().max(1e-3);
+            let o: [f32; 3] = std::array::from_fn(|k| centre[k] + radius * dir[k] / len);
+            let target: [f32; 3] = std::array::from_fn(|k| lo[k] + next() * (hi[k] - lo[k]));
+            let d: [f32; 3] = std::array::from_fn(|k| target[k] - o[k]);
+            let tfar = if i % 5 == 0 { 0.9 } else { f32::INFINITY };
+            ray(o, 0.0, d, tfar)
+        })
+        .collect()
+}
+
+#[test]
+fn every_accelerator_agrees_with_the_list_on_a_shared_mesh() {
+    let Some(mesh) = shared_mesh("bunny1k.msh") else {
+        return;
+    };
+    let f = Fixture::new(&rays_around(&mesh, 4000));
+    let run = |kind: AccelKind, occluded: bool| {
+        let out = f.out(&format!("{kind}.{occluded}"));
+        let mut args = vec![
+            "trace",
+            "--mesh",
+            s(&mesh),
+            "--rays",
+            s(&f.rays),
+            "--hits",
+            s(&out),
+            "--accel",
+            kind.name(),
+        ];
+        if occluded {
+            args.push("--occluded");
+        }
+        let result = arbor(&args);
+        assert!(
+            result.status.success(),
+            "{kind}: {}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        out
+    };
+    let reference = read_hits(&run(AccelKind::List, false));
+    let reference_occ = std::fs::read(run(AccelKind::List, true)).unwrap();
+    let hits = reference.iter().filter(|h| h.prim != u32::MAX).count();
+    assert!(
+        hits > 200 && hits < 3800,
+        "the rays should both hit and miss: {hits}"
+    );
+    for &kind in AccelKind::ALL {
+        let got = read_hits(&run(kind, false));
+        for (i, (a, b)) in reference.iter().zip(&got).enumerate() {
+            let same = a == b
+                || (a.prim != u32::MAX
+                    && b.prim != u32::MAX
+                    && (a.t - b.t).abs() <= 1e-4 * a.t.abs().max(1.0));
+            assert!(same, "{kind}, ray {i}: list {a:?}, {kind} {b:?}");
+        }
+        assert_eq!(
+            std::fs::read(run(kind, true)).unwrap(),
+            reference_occ,
+            "{kind} occlusion"
+        );
+    }
+}
