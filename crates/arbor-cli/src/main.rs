@@ -6,6 +6,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod compare;
+mod render;
 mod trace;
 
 /// arbor: a ray tracer built around transformations and acceleration structures.
@@ -18,6 +20,10 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Render a scene to a PNG or EXR image (no scene: the built-in default scene).
+    Render(render::RenderArgs),
+    /// Compare two images: PSNR, mean/max error, fraction within 2/255.
+    Compare(compare::CompareArgs),
     /// Trace a batch of rays against a triangle mesh (the ray/hit file interface).
     Trace(trace::TraceArgs),
 }
@@ -35,9 +41,23 @@ impl std::fmt::Display for InputError {
 
 impl std::error::Error for InputError {}
 
+/// A rayon pool of `threads` workers (default: one per core).
+pub fn thread_pool(threads: Option<usize>) -> anyhow::Result<rayon::ThreadPool> {
+    if threads == Some(0) {
+        return Err(InputError("--threads must be at least 1".into()).into());
+    }
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        builder = builder.num_threads(n);
+    }
+    Ok(builder.build()?)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Render(args) => render::run(args),
+        Command::Compare(args) => compare::run(args),
         Command::Trace(args) => trace::run(args),
     };
     match result {

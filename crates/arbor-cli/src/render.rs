@@ -1,0 +1,153 @@
+//! `arbor render`: a scene file (or the built-in default scene) to a picture.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Context;
+use arbor::film::ImageFormat;
+use arbor::flatten::FlatScene;
+use arbor::render::render;
+use arbor::tracer::Tracer;
+use arbor_accel::AccelKind;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::InputError;
+
+/// Arguments of `arbor render`.
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// The scene file (Cornell XML). Without one, the built-in default scene.
+    pub scene: Option<PathBuf>,
+    /// Output image: `.png` (8-bit) or `.exr` (linear float). Default: the
+    /// scene's name with `.png`, in the current directory.
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Acceleration structure (`list` is brute force).
+    #[arg(long, default_value_t = AccelKind::DEFAULT)]
+    pub accel: AccelKind,
+    /// Worker threads (default: all cores). The image is the same for any number.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Print timings and structure statistics.
+    #[arg(long)]
+    pub stats: bool,
+}
+
+/// Runs `arbor render`.
+pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let pool = crate::thread_pool(args.threads)?;
+    pool.install(|| render_in_pool(&args))
+}
+
+fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let (scene, output) = match &args.scene {
+        Some(path) => {
+            let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
+            if !args.quiet {
+                for w in &loaded.warnings {
+                    eprintln!("{w}");
+                }
+            }
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "out".into());
+            (loaded.scene, PathBuf::from(format!("{stem}.png")))
+        }
+        None => (
+            arbor::default_scene::classroom(),
+            PathBuf::from("arbor.png"),
+        ),
+    };
+    let output = args.output.clone().unwrap_or(output);
+    // Check the format before spending time on the render.
+    ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
+    let loaded = start.elapsed();
+
+    let flat = FlatScene::new(&scene).map_err(|_| {
+        InputError("the scene has a transform that cannot be inverted (a zero scale)".into())
+    })?;
+    let build_start = Instant::now();
+    let tracer = Tracer::new(flat, args.accel);
+    let built = build_start.elapsed();
+
+    let cancel = Arc::new(AtomicBool::new(false));
+    install_interrupt_handler(cancel.clone());
+    let total = scene.width as u64 * scene.height as u64;
+    let bar = progress_bar(total, args.quiet);
+    let render_start = Instant::now();
+    let film = render(&scene, &tracer, &|n| bar.inc(n), &cancel);
+    bar.finish_and_clear();
+    let film = match film {
+        Ok(f) => f,
+        Err(_) => anyhow::bail!("interrupted: no image written"),
+    };
+    let rendered = render_start.elapsed();
+    film.write(&output, scene.variant)
+        .with_context(|| "writing the image")?;
+    if !args.quiet {
+        eprintln!(
+            "wrote {} ({}x{}, {} samples per pixel) in {:.2} s",
+            output.display(),
+            scene.width,
+            scene.height,
+            scene.samples_per_side * scene.samples_per_side,
+            start.elapsed().as_secs_f64()
+        );
+    }
+    if args.stats {
+        let s = arbor_accel::Accelerator::stats(tracer.accel());
+        eprintln!(
+            "primitives {}  accel {}  nodes {}  leaves {}  depth {}  memory {} B",
+            tracer.scene().len(),
+            tracer.kind(),
+            s.nodes,
+            s.leaves,
+            s.max_depth,
+            s.memory_bytes
+        );
+        eprintln!(
+            "time: load {:.3} s, build {:.3} s, render {:.3} s",
+            loaded.as_secs_f64(),
+            built.as_secs_f64(),
+            rendered.as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    // indicatif hides a stderr bar by itself when stderr is not a terminal.
+    let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} ETA {eta}")
+            .expect("valid template"),
+    );
+    bar
+}
+
+/// The first Ctrl-C asks the render to stop (no file is written); a second
+/// one exits at once.
+fn install_interrupt_handler(cancel: Arc<AtomicBool>) {
+    let _ = ctrlc::set_handler(move || {
+        if cancel.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+    });
+}
+
+/// Whether `path` has an image extension we write (for argument checks).
+#[allow(dead_code)]
+pub fn is_image_path(path: &Path) -> bool {
+    ImageFormat::from_path(path).is_ok()
+}

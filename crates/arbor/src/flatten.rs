@@ -1,0 +1,476 @@
+//! Flattening: the compile step between the scene graph and the
+//! accelerators. Transforms are composed down the hierarchy and pushed to the
+//! leaves; every leaf becomes one or more [`Primitive`]s that an acceleration
+//! structure can index by bounding box.
+//!
+//! Policy (today, with no instancing in the format yet): meshes are baked to
+//! world space in the 2010 variant, exactly as the course's references
+//! require (every vertex becomes `f32(M v)`, spec §5.3), and kept in object
+//! space with their transform in 2015; analytic shapes (sphere, box,
+//! cylinder) stay analytic and keep their composed transform, so a
+//! transformed sphere is still an exact ellipsoid.
+
+use std::sync::Arc;
+
+use arbor_accel::{Aabb, Vec3};
+use glam::{DMat4, DVec2, DVec3};
+
+use crate::scene::{Scene, Variant};
+use crate::shader::Shader;
+use crate::surface::{box_, cylinder, sphere, triangle, Candidate, Surface, Transform};
+
+/// Index meaning "no transform" (the primitive is in world space).
+const NO_TRANSFORM: u32 = u32::MAX;
+
+/// One shape the accelerators index.
+#[derive(Clone, Copy, Debug)]
+pub enum Shape {
+    /// Analytic sphere (object space).
+    Sphere {
+        /// Centre.
+        center: DVec3,
+        /// Radius.
+        radius: f64,
+    },
+    /// 2010 analytic box (object space).
+    Box {
+        /// Lower corner.
+        min: DVec3,
+        /// Upper corner.
+        max: DVec3,
+    },
+    /// Capped cylinder (object space).
+    Cylinder {
+        /// Axis centre.
+        center: DVec3,
+        /// Radius.
+        radius: f64,
+        /// Length along z.
+        height: f64,
+    },
+    /// Triangle `index` of mesh `mesh`.
+    Triangle {
+        /// Index into the flattened meshes.
+        mesh: u32,
+        /// Triangle index within the mesh.
+        index: u32,
+    },
+}
+
+/// A flattened primitive: its shape, its transform (an index, or none) and
+/// its shader.
+#[derive(Clone, Copy, Debug)]
+pub struct Primitive {
+    /// The geometry.
+    pub shape: Shape,
+    transform: u32,
+    shader: u32,
+}
+
+/// A mesh after flattening: positions in world space (2010) or object space
+/// with a transform (2015), normals ready for interpolation.
+#[derive(Clone, Debug)]
+pub struct FlatMesh {
+    /// Vertex positions (the `f32` values, widened).
+    pub positions: Vec<DVec3>,
+    /// Per-vertex normals (2010: transformed and normalised; 2015: as in the file).
+    pub normals: Option<Vec<DVec3>>,
+    /// Per-vertex texture coordinates.
+    pub uvs: Option<Vec<DVec2>>,
+    /// Triangles.
+    pub triangles: Vec<[u32; 3]>,
+    transform: u32,
+    shader: u32,
+}
+
+/// Everything needed to shade a hit point.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit<'a> {
+    /// Ray parameter.
+    pub t: f64,
+    /// World-space position.
+    pub point: DVec3,
+    /// World-space normal (unit length, except the 2015 transformed sphere,
+    /// spec §5.1).
+    pub normal: DVec3,
+    /// Texture coordinates when the surface has them.
+    pub uv: Option<DVec2>,
+    /// The surface's shader.
+    pub shader: &'a Shader,
+}
+
+/// The flattened scene: primitives with their world bounds.
+#[derive(Clone, Debug)]
+pub struct FlatScene {
+    variant: Variant,
+    primitives: Vec<Primitive>,
+    meshes: Vec<FlatMesh>,
+    transforms: Vec<Transform>,
+    shaders: Vec<Arc<Shader>>,
+    /// World-space `f64` bounds of each primitive.
+    bounds: Vec<(DVec3, DVec3)>,
+}
+
+/// A leaf whose transform cannot be inverted (a zero scale).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SingularTransform;
+
+impl FlatScene {
+    /// Flattens `scene`'s surface hierarchy.
+    pub fn new(scene: &Scene) -> Result<FlatScene, SingularTransform> {
+        let mut flat = FlatScene {
+            variant: scene.variant,
+            primitives: Vec::new(),
+            meshes: Vec::new(),
+            transforms: Vec::new(),
+            shaders: Vec::new(),
+            bounds: Vec::new(),
+        };
+        let mut result = Ok(());
+        for surface in &scene.surfaces {
+            surface.for_each_leaf(DMat4::IDENTITY, &mut |leaf, m| {
+                if result.is_ok() {
+                    result = flat.add_leaf(leaf, m);
+                }
+            });
+        }
+        result?;
+        flat.bounds = (0..flat.primitives.len())
+            .map(|i| flat.primitive_bounds(i))
+            .collect();
+        Ok(flat)
+    }
+
+    /// The variant whose conventions the intersection code follows.
+    pub fn variant(&self) -> Variant {
+        self.variant
+    }
+
+    /// Number of primitives.
+    pub fn len(&self) -> usize {
+        self.primitives.len()
+    }
+
+    /// Whether there are no primitives.
+    pub fn is_empty(&self) -> bool {
+        self.primitives.is_empty()
+    }
+
+    /// World-space bounds of primitive `i`.
+    pub fn bounds(&self, i: usize) -> (DVec3, DVec3) {
+        self.bounds[i]
+    }
+
+    fn shader_index(&mut self, shader: &Arc<Shader>) -> u32 {
+        // Shaders are few; a linear search by pointer keeps them shared.
+        if let Some(i) = self.shaders.iter().position(|s| Arc::ptr_eq(s, shader)) {
+            return i as u32;
+        }
+        self.shaders.push(shader.clone());
+        (self.shaders.len() - 1) as u32
+    }
+
+    fn transform_index(&mut self, m: DMat4) -> Result<u32, SingularTransform> {
+        if m == DMat4::IDENTITY {
+            return Ok(NO_TRANSFORM);
+        }
+        let t = Transform::new(m).ok_or(SingularTransform)?;
+        self.transforms.push(t);
+        Ok((self.transforms.len() - 1) as u32)
+    }
+
+    fn add_leaf(&mut self, leaf: &Surface, m: DMat4) -> Result<(), SingularTransform> {
+        match leaf {
+            Surface::Sphere(s) => {
+                let (transform, shader) = (self.transform_index(m)?, self.shader_index(&s.shader));
+                self.primitives.push(Primitive {
+                    shape: Shape::Sphere {
+                        center: s.center,
+                        radius: s.radius,
+                    },
+                    transform,
+                    shader,
+                });
+            }
+            Surface::Box(b) => {
+                let shader = self.shader_index(&b.shader);
+                match self.variant {
+                    Variant::Cornell2010 => {
+                        let transform = self.transform_index(m)?;
+                        self.primitives.push(Primitive {
+                            shape: Shape::Box {
+                                min: b.min,
+                                max: b.max,
+                            },
+                            transform,
+                            shader,
+                        });
+                    }
+                    Variant::Cornell2015 => {
+                        let (corners, tris) = box_::triangles_2015(b.min, b.max);
+                        let transform = self.transform_index(m)?;
+                        self.push_mesh(FlatMesh {
+                            positions: corners.to_vec(),
+                            normals: None,
+                            uvs: None,
+                            triangles: tris.to_vec(),
+                            transform,
+                            shader,
+                        });
+                    }
+                }
+            }
+            Surface::Cylinder(c) => {
+                let (transform, shader) = (self.transform_index(m)?, self.shader_index(&c.shader));
+                self.primitives.push(Primitive {
+                    shape: Shape::Cylinder {
+                        center: c.center,
+                        radius: c.radius,
+                        height: c.height,
+                    },
+                    transform,
+                    shader,
+                });
+            }
+            Surface::Mesh(mesh) => {
+                let shader = self.shader_index(&mesh.shader);
+                let data = &mesh.data;
+                let widen = |v: &Vec3| DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+                let uvs = data.uvs.as_ref().map(|uv| {
+                    uv.iter()
+                        .map(|t| DVec2::new(t.x as f64, t.y as f64))
+                        .collect()
+                });
+                let flat = match self.variant {
+                    Variant::Cornell2010 => {
+                        // Bake to world space, rounding each vertex to f32 as the
+                        // references require; normals by the inverse transpose,
+                        // normalised per vertex.
+                        let t = Transform::new(m).ok_or(SingularTransform)?;
+                        let positions = data
+                            .positions
+                            .iter()
+                            .map(|v| {
+                                let w = t.point_to_world(widen(v));
+                                DVec3::new(w.x as f32 as f64, w.y as f32 as f64, w.z as f32 as f64)
+                            })
+                            .collect();
+                        let normals = data.normals.as_ref().map(|ns| {
+                            ns.iter()
+                                .map(|n| t.normal_to_world(widen(n)).normalize())
+                                .collect()
+                        });
+                        FlatMesh {
+                            positions,
+                            normals,
+                            uvs,
+                            triangles: data.triangles.clone(),
+                            transform: NO_TRANSFORM,
+                            shader,
+                        }
+                    }
+                    Variant::Cornell2015 => FlatMesh {
+                        positions: data.positions.iter().map(widen).collect(),
+                        normals: data
+                            .normals
+                            .as_ref()
+                            .map(|ns| ns.iter().map(widen).collect()),
+                        uvs,
+                        triangles: data.triangles.clone(),
+                        transform: self.transform_index(m)?,
+                        shader,
+                    },
+                };
+                self.push_mesh(flat);
+            }
+            Surface::Group(_) => unreachable!("for_each_leaf yields leaves only"),
+        }
+        Ok(())
+    }
+
+    fn push_mesh(&mut self, mesh: FlatMesh) {
+        let index = self.meshes.len() as u32;
+        for (i, _) in mesh.triangles.iter().enumerate() {
+            self.primitives.push(Primitive {
+                shape: Shape::Triangle {
+                    mesh: index,
+                    index: i as u32,
+                },
+                transform: mesh.transform,
+                shader: mesh.shader,
+            });
+        }
+        self.meshes.push(mesh);
+    }
+
+    fn transform(&self, index: u32) -> Option<&Transform> {
+        (index != NO_TRANSFORM).then(|| &self.transforms[index as usize])
+    }
+
+    fn triangle(&self, mesh: u32, index: u32) -> (&FlatMesh, [DVec3; 3]) {
+        let m = &self.meshes[mesh as usize];
+        let [a, b, c] = m.triangles[index as usize];
+        let p = |i: u32| m.positions[i as usize];
+        (m, [p(a), p(b), p(c)])
+    }
+
+    fn primitive_bounds(&self, i: usize) -> (DVec3, DVec3) {
+        let prim = &self.primitives[i];
+        let xf = self.transform(prim.transform);
+        let object = match prim.shape {
+            Shape::Sphere { center, radius } => (center - radius, center + radius),
+            Shape::Box { min, max } => (min, max),
+            Shape::Cylinder {
+                center,
+                radius,
+                height,
+            } => {
+                let e = DVec3::new(radius, radius, height / 2.0);
+                (center - e, center + e)
+            }
+            Shape::Triangle { mesh, index } => {
+                let (_, p) = self.triangle(mesh, index);
+                // Transform the vertices themselves: tighter than the corners of their box.
+                let p = p.map(|v| xf.map_or(v, |t| t.point_to_world(v)));
+                return (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+            }
+        };
+        match xf {
+            Some(t) => t.bounds_to_world(object.0, object.1),
+            None => object,
+        }
+    }
+
+    /// The exact `f64` intersection of primitive `i` with the world ray
+    /// `o + t d`, `t` in `(tmin, tmax)` (closed for 2015 triangles).
+    pub fn intersect(
+        &self,
+        i: usize,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+    ) -> Option<Candidate> {
+        let prim = &self.primitives[i];
+        let is2015 = self.variant == Variant::Cornell2015;
+        let (o, d) = match self.transform(prim.transform) {
+            Some(t) => (t.point_to_object(o), t.vector_to_object(d)),
+            None => (o, d),
+        };
+        match prim.shape {
+            Shape::Sphere { center, radius } => {
+                sphere::intersect(center, radius, o, d, tmin, tmax, is2015).map(|t| Candidate {
+                    t,
+                    aux: DVec3::ZERO,
+                })
+            }
+            Shape::Box { min, max } => {
+                box_::intersect(min, max, o, d, tmin, tmax).map(|(t, n)| Candidate { t, aux: n })
+            }
+            Shape::Cylinder {
+                center,
+                radius,
+                height,
+            } => cylinder::intersect(center, radius, height, o, d, tmin, tmax)
+                .map(|(t, n)| Candidate { t, aux: n }),
+            Shape::Triangle { mesh, index } => {
+                let (_, [p0, p1, p2]) = self.triangle(mesh, index);
+                triangle::intersect(p0, p1, p2, o, d, tmin, tmax, is2015).map(|(t, b, g)| {
+                    Candidate {
+                        t,
+                        aux: DVec3::new(b, g, 0.0),
+                    }
+                })
+            }
+        }
+    }
+
+    /// The full hit record for a candidate found by [`FlatScene::intersect`]
+    /// on the same ray.
+    pub fn hit(&self, i: usize, o: DVec3, d: DVec3, c: Candidate) -> Hit<'_> {
+        let prim = &self.primitives[i];
+        let is2015 = self.variant == Variant::Cornell2015;
+        let xf = self.transform(prim.transform);
+        let (oo, od) = match xf {
+            Some(t) => (t.point_to_object(o), t.vector_to_object(d)),
+            None => (o, d),
+        };
+        let object_point = oo + c.t * od;
+        // 2010 takes the world ray's point; 2015 maps the object point back.
+        let point = match (is2015, xf) {
+            (true, Some(t)) => t.point_to_world(object_point),
+            _ => o + c.t * d,
+        };
+        let to_world = |n: DVec3| match xf {
+            Some(t) => t.normal_to_world(n).normalize(),
+            None => n.normalize(),
+        };
+        let mut uv = None;
+        let normal = match prim.shape {
+            Shape::Sphere { center, .. } => {
+                let n = (object_point - center).normalize();
+                if is2015 {
+                    uv = Some(DVec2::new(
+                        (n.x.atan2(n.z) + std::f64::consts::PI) / (2.0 * std::f64::consts::PI),
+                        (n.y.asin() - std::f64::consts::FRAC_PI_2) / std::f64::consts::PI,
+                    ));
+                    // 2015 does not renormalise after the inverse transpose.
+                    xf.map_or(n, |t| t.normal_to_world(n))
+                } else {
+                    to_world(n)
+                }
+            }
+            Shape::Box { .. } => to_world(c.aux),
+            Shape::Cylinder { .. } => {
+                let n = if c.aux.dot(od) > 0.0 { -c.aux } else { c.aux };
+                to_world(n)
+            }
+            Shape::Triangle { mesh, index } => {
+                let (m, [p0, p1, p2]) = self.triangle(mesh, index);
+                let (b, g) = (c.aux.x, c.aux.y);
+                let a = 1.0 - b - g;
+                let [i0, i1, i2] = m.triangles[index as usize].map(|k| k as usize);
+                if let Some(uvs) = &m.uvs {
+                    uv = Some(a * uvs[i0] + b * uvs[i1] + g * uvs[i2]);
+                }
+                match &m.normals {
+                    Some(ns) => to_world(a * ns[i0] + b * ns[i1] + g * ns[i2]),
+                    None => to_world((p1 - p0).cross(p2 - p0)),
+                }
+            }
+        };
+        Hit {
+            t: c.t,
+            point,
+            normal,
+            uv,
+            shader: &self.shaders[prim.shader as usize],
+        }
+    }
+}
+
+/// Rounds an `f64` box outward to `f32` and grows it by `pad` on every side.
+pub fn to_f32_box(min: DVec3, max: DVec3, pad: f64) -> Aabb {
+    let down = |x: f64| {
+        let x = x - pad;
+        let f = x as f32;
+        if f as f64 > x {
+            f.next_down()
+        } else {
+            f
+        }
+    };
+    let up = |x: f64| {
+        let x = x + pad;
+        let f = x as f32;
+        if (f as f64) < x {
+            f.next_up()
+        } else {
+            f
+        }
+    };
+    Aabb::new(
+        Vec3::new(down(min.x), down(min.y), down(min.z)),
+        Vec3::new(up(max.x), up(max.y), up(max.z)),
+    )
+}

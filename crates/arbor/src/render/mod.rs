@@ -1,0 +1,174 @@
+//! The renderer: camera rays for every pixel sample, shaded by the
+//! [`Integrator`], averaged into a [`Film`]. Work is split into tiles that
+//! run on all cores; every pixel depends only on its own samples, so the
+//! image is the same bit for bit for any thread count.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::film::Film;
+use crate::scene::{Scene, Variant};
+use crate::tracer::Tracer;
+
+mod shade;
+
+pub use shade::Integrator;
+
+/// Side of the square tiles the image is cut into for parallel rendering.
+pub const TILE_SIZE: u32 = 32;
+
+/// A rectangle of pixels, `x0..x1` by `y0..y1`, row 0 at the top.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl Region {
+    /// Number of pixels.
+    pub fn area(&self) -> u64 {
+        (self.x1 - self.x0) as u64 * (self.y1 - self.y0) as u64
+    }
+}
+
+/// The render was cancelled before it finished.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cancelled;
+
+/// The tiles covering a `width` x `height` image, row by row.
+pub fn tiles(width: u32, height: u32) -> Vec<Region> {
+    let mut out = Vec::new();
+    for y0 in (0..height).step_by(TILE_SIZE as usize) {
+        for x0 in (0..width).step_by(TILE_SIZE as usize) {
+            out.push(Region {
+                x0,
+                y0,
+                x1: (x0 + TILE_SIZE).min(width),
+                y1: (y0 + TILE_SIZE).min(height),
+            });
+        }
+    }
+    out
+}
+
+/// The linear radiance of pixel `(column, row)` (row 0 at the top): the
+/// average of its `s`x`s` samples, times the exposure.
+pub fn render_pixel(
+    scene: &Scene,
+    integrator: &Integrator,
+    camera: &crate::camera::PreparedCamera,
+    column: u32,
+    row: u32,
+) -> DVec3 {
+    let s = scene.samples_per_side;
+    let (w, h) = (scene.width, scene.height);
+    let i = column as f64;
+    let j = (h - 1 - row) as f64;
+    let mut sum = DVec3::ZERO;
+    for a in 0..s {
+        for b in 0..s {
+            let (u, v) = match scene.variant {
+                Variant::Cornell2010 => {
+                    let x = (column * s + a) as f64;
+                    let y = ((h - 1 - row) * s + b) as f64;
+                    (
+                        (x + 0.5) / (w * s) as f64 - 0.5,
+                        (y + 0.5) / (h * s) as f64 - 0.5,
+                    )
+                }
+                Variant::Cornell2015 => {
+                    let inv = 1.0 / s as f64;
+                    let u0 = (i + (a as f64 + 0.5) * inv) / w as f64;
+                    let v0 = (j + (b as f64 + 0.5) * inv) / h as f64;
+                    (2.0 * u0 - 1.0, 2.0 * v0 - 1.0)
+                }
+            };
+            let (o, d) = camera.ray(u, v);
+            sum += integrator.camera_ray(o, d);
+        }
+    }
+    let n = (s * s) as f64;
+    match scene.variant {
+        Variant::Cornell2010 => sum / n,
+        Variant::Cornell2015 => scene.exposure * sum / n,
+    }
+}
+
+/// Renders `region` of `scene` through `tracer`. `progress(pixels)` is
+/// called as tiles finish; setting `cancel` stops the render within one tile
+/// row.
+pub fn render_region(
+    scene: &Scene,
+    tracer: &Tracer,
+    region: Region,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Film, Cancelled> {
+    let camera = scene.camera.prepare();
+    let integrator = Integrator::new(scene, tracer);
+    let all = tiles(scene.width, scene.height);
+    let mine: Vec<Region> = all
+        .into_iter()
+        .filter_map(|t| {
+            let r = Region {
+                x0: t.x0.max(region.x0),
+                y0: t.y0.max(region.y0),
+                x1: t.x1.min(region.x1),
+                y1: t.y1.min(region.y1),
+            };
+            (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
+        })
+        .collect();
+    let done: Vec<Option<(Region, Vec<DVec3>)>> = mine
+        .par_iter()
+        .map(|&tile| {
+            let mut pixels = Vec::with_capacity(tile.area() as usize);
+            for row in tile.y0..tile.y1 {
+                if cancel.load(Ordering::Relaxed) {
+                    return None;
+                }
+                for col in tile.x0..tile.x1 {
+                    pixels.push(render_pixel(scene, &integrator, &camera, col, row));
+                }
+            }
+            progress(tile.area());
+            Some((tile, pixels))
+        })
+        .collect();
+    let mut film = Film::new(region.x1 - region.x0, region.y1 - region.y0);
+    for entry in done {
+        let (tile, pixels) = entry.ok_or(Cancelled)?;
+        let mut k = 0;
+        for row in tile.y0..tile.y1 {
+            for col in tile.x0..tile.x1 {
+                film.set(col - region.x0, row - region.y0, pixels[k]);
+                k += 1;
+            }
+        }
+    }
+    Ok(film)
+}
+
+/// Renders the whole image.
+pub fn render(
+    scene: &Scene,
+    tracer: &Tracer,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<Film, Cancelled> {
+    let full = Region {
+        x0: 0,
+        y0: 0,
+        x1: scene.width,
+        y1: scene.height,
+    };
+    render_region(scene, tracer, full, progress, cancel)
+}

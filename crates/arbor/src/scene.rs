@@ -1,0 +1,54 @@
+//! The scene as loaded: camera, lights, shaders and the surface hierarchy,
+//! plus the rendering conventions of the format variant it came from.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::camera::Camera;
+use crate::light::Light;
+use crate::surface::Surface;
+use crate::texture::CubeMap;
+
+/// Which edition of the Cornell course's conventions a scene follows
+/// (`docs/cornell-scene-format.md` §1). They differ in camera model, light
+/// falloff, shading details, recursion limits and output conversion.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// The Fall 2010 framework (no `type` on `<camera>`).
+    Cornell2010,
+    /// The Fall 2015 framework (typed cameras and lights, exposure, ...).
+    Cornell2015,
+}
+
+/// A complete scene, ready to be compiled for rendering.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The conventions to follow.
+    pub variant: Variant,
+    /// How rays leave the eye.
+    pub camera: Camera,
+    /// Image width and height in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Antialiasing: each pixel is sampled on a `samples_per_side`² grid.
+    pub samples_per_side: u32,
+    /// The light sources.
+    pub lights: Vec<Light>,
+    /// The top-level surfaces (each may be a group holding more).
+    pub surfaces: Vec<Surface>,
+    /// Radiance of rays that hit nothing (2015 `backColor`; black in 2010).
+    pub background: DVec3,
+    /// Scale applied to every pixel before gamma (2015 `exposure`).
+    pub exposure: f64,
+    /// Environment map seen by rays that hit nothing (2015 `cubemap`).
+    pub cubemap: Option<Arc<CubeMap>>,
+}
+
+impl Scene {
+    /// The grid side `s` for a `<samples>` value `n`: `round(sqrt(n))`, at least 1.
+    pub fn samples_per_side_for(n: u32) -> u32 {
+        ((n as f64).sqrt().round() as u32).max(1)
+    }
+}

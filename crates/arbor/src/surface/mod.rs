@@ -1,0 +1,77 @@
+//! The scene structure of the lecture: surfaces (sphere, box, cylinder,
+//! triangle mesh), groups with transformations, nested to any depth.
+//!
+//! This is the scene graph as loaded. Rendering never walks it directly: it
+//! is flattened into world-space primitives by [`crate::flatten`] and indexed
+//! by an acceleration structure kept separate from it.
+
+use std::sync::Arc;
+
+use glam::{DMat4, DVec3};
+
+use crate::mesh::MeshData;
+use crate::shader::Shader;
+
+pub mod box_;
+pub mod cylinder;
+pub mod group;
+pub mod sphere;
+pub mod transformed;
+pub mod triangle;
+
+pub use box_::BoxSurface;
+pub use cylinder::Cylinder;
+pub use group::Group;
+pub use sphere::Sphere;
+pub use transformed::Transform;
+
+/// A node of the scene graph.
+#[derive(Clone, Debug)]
+pub enum Surface {
+    /// An analytic sphere.
+    Sphere(Sphere),
+    /// An axis-aligned box (in its own space).
+    Box(BoxSurface),
+    /// A capped cylinder along z (2015).
+    Cylinder(Cylinder),
+    /// A triangle mesh, shaded by one shader.
+    Mesh(MeshSurface),
+    /// Children under a common transformation.
+    Group(Group),
+}
+
+/// A triangle mesh placed in the scene.
+#[derive(Clone, Debug)]
+pub struct MeshSurface {
+    /// The geometry, shared when several surfaces use the same file.
+    pub data: Arc<MeshData>,
+    /// The shader of every triangle.
+    pub shader: Arc<Shader>,
+}
+
+impl Surface {
+    /// Calls `visit` with every leaf and its world matrix, depth first in
+    /// document order. `parent` is the matrix of the enclosing groups.
+    pub fn for_each_leaf(&self, parent: DMat4, visit: &mut dyn FnMut(&Surface, DMat4)) {
+        match self {
+            Surface::Group(g) => {
+                let m = parent * g.transform;
+                for child in &g.children {
+                    child.for_each_leaf(m, visit);
+                }
+            }
+            leaf => visit(leaf, parent),
+        }
+    }
+}
+
+/// The result of an exact object-space intersection: the ray parameter and
+/// what the final hit computation needs to recover the normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    /// Ray parameter (shared between object and world space).
+    pub t: f64,
+    /// Shape-specific data: barycentrics for triangles, the entering face
+    /// normal for boxes, unused otherwise.
+    pub aux: DVec3,
+}

@@ -1,0 +1,82 @@
+//! The sphere.
+
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::shader::Shader;
+
+/// A sphere given by centre and radius (in its own space).
+#[derive(Clone, Debug)]
+pub struct Sphere {
+    /// Centre.
+    pub center: DVec3,
+    /// Radius.
+    pub radius: f64,
+    /// Shader.
+    pub shader: Arc<Shader>,
+}
+
+/// The nearer root of the ray/sphere quadratic lying strictly inside
+/// `(tmin, tmax)`, else the farther one (a ray starting on or inside the
+/// sphere must find its far side: spec §9.6). `cornell2015` selects the 2015
+/// framework's algebra, which rounds differently.
+pub fn intersect(
+    center: DVec3,
+    radius: f64,
+    o: DVec3,
+    d: DVec3,
+    tmin: f64,
+    tmax: f64,
+    cornell2015: bool,
+) -> Option<f64> {
+    let (t1, t2) = if cornell2015 {
+        let q = o - center;
+        let dd = d.dot(d);
+        let qd = q.dot(d);
+        let qq = q.dot(q);
+        let disc = qd * qd - dd * (qq - radius * radius);
+        if disc < 0.0 {
+            return None;
+        }
+        let s = disc.sqrt();
+        ((-qd - s) / dd, (-qd + s) / dd)
+    } else {
+        let oc = o - center;
+        let a = d.dot(d);
+        let b = 2.0 * d.dot(oc);
+        let c = oc.dot(oc) - radius * radius;
+        let disc = b * b - 4.0 * a * c;
+        if disc < 0.0 {
+            return None;
+        }
+        let s = disc.sqrt();
+        ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a))
+    };
+    [t1, t2].into_iter().find(|&t| t > tmin && t < tmax)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn near_then_far_root() {
+        let o = DVec3::new(0.0, 0.0, 5.0);
+        let d = DVec3::NEG_Z;
+        for year in [false, true] {
+            assert_eq!(
+                intersect(DVec3::ZERO, 1.0, o, d, 0.0, 1e30, year),
+                Some(4.0)
+            );
+            // From inside, the far side.
+            let t = intersect(DVec3::ZERO, 1.0, DVec3::ZERO, d, 1e-6, 1e30, year);
+            assert_eq!(t, Some(1.0));
+            assert_eq!(intersect(DVec3::ZERO, 1.0, o, d, 0.0, 3.0, year), None);
+            assert_eq!(
+                intersect(DVec3::ZERO, 1.0, o, DVec3::X, 0.0, 1e30, year),
+                None
+            );
+        }
+    }
+}

@@ -1,0 +1,144 @@
+//! Image textures and environment cube maps (2015 variant).
+
+use glam::DVec3;
+
+/// How texture lookups outside `[0,1]` behave.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// `ClampTexture`: clamp to the edge texels.
+    Clamp,
+    /// `RepeatTexture`: wrap around.
+    Repeat,
+}
+
+/// An 8-bit image used as a colour texture, texels scaled to `[0,1]` with no
+/// gamma decoding (spec §6.5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Wrap mode.
+    pub wrap: Wrap,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Row-major texels, row 0 at the top.
+    pub texels: Vec<DVec3>,
+}
+
+impl Texture {
+    /// The texel for texture coordinates `(u, v)`: `x = floor(u w + 0.5)`,
+    /// `y = floor((1 - v) h + 0.5)`, then clamped or wrapped.
+    pub fn lookup(&self, u: f64, v: f64) -> DVec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = (u * w as f64 + 0.5).floor() as i64;
+        let y = ((1.0 - v) * h as f64 + 0.5).floor() as i64;
+        let (x, y) = match self.wrap {
+            Wrap::Clamp => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+            Wrap::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
+        };
+        self.texels[(y * w + x) as usize]
+    }
+}
+
+/// A vertical-cross environment map (3 blocks wide, 4 tall) of linear
+/// radiance, as the 2015 framework reads from PFM files (spec §6.5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CubeMap {
+    /// Block size in texels (`width / 3`).
+    pub block: usize,
+    /// Image width in texels.
+    pub width: usize,
+    /// Row-major texels as stored in the PFM (bottom row first).
+    pub texels: Vec<DVec3>,
+    /// Multiplier applied to every lookup.
+    pub scale: f64,
+}
+
+impl CubeMap {
+    /// The radiance seen in direction `d`.
+    pub fn lookup(&self, d: DVec3) -> DVec3 {
+        let (ax, ay, az) = (d.x.abs(), d.y.abs(), d.z.abs());
+        // (face u, face v, block column, block row) per the framework's dirToFace/faceToIndex.
+        let (u, v, bx, by) = if ax >= ay && ax >= az {
+            if d.x > 0.0 {
+                (d.z / d.x, d.y / ax, 2, 2)
+            } else {
+                (d.z / d.x, d.y / ax, 0, 2)
+            }
+        } else if ay >= az {
+            if d.y > 0.0 {
+                (d.x / ay, d.z / d.y, 1, 3)
+            } else {
+                (d.x / ay, d.z / d.y, 1, 1)
+            }
+        } else if d.z > 0.0 {
+            (d.x / az, -d.y / d.z, 1, 0)
+        } else {
+            (d.x / az, -d.y / d.z, 1, 2)
+        };
+        let b = self.block as f64;
+        let iu = ((b * (u + 1.0) / 2.0).floor() as usize).min(self.block - 1);
+        let iv = ((b * (v + 1.0) / 2.0).floor() as usize).min(self.block - 1);
+        let x = bx * self.block + iu;
+        let y = by * self.block + iv;
+        self.texels[y * self.width + x] * self.scale
+    }
+}
+
+/// Reads a little-endian RGB PFM (`PF`, negative scale) laid out as a
+/// vertical cross, as the 2015 framework's cube maps are.
+pub fn read_pfm_cubemap(path: &std::path::Path, scale: f64) -> Result<CubeMap, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read: {e}"))?;
+    // Header: three whitespace-separated tokens after the magic, then one byte.
+    let mut tokens = Vec::new();
+    let mut pos = 0;
+    while tokens.len() < 4 && pos < bytes.len() {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        tokens.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+    }
+    pos += 1;
+    if tokens.len() < 4 || tokens[0] != "PF" {
+        return Err("not a colour PFM file (expected the PF header)".into());
+    }
+    let width: usize = tokens[1].parse().map_err(|_| "bad PFM width")?;
+    let height: usize = tokens[2].parse().map_err(|_| "bad PFM height")?;
+    let endian: f64 = tokens[3].parse().map_err(|_| "bad PFM scale")?;
+    if width == 0 || width % 3 != 0 || height != width / 3 * 4 {
+        return Err(format!(
+            "a cube map cross must be 3 blocks wide and 4 tall; found {width} x {height}"
+        ));
+    }
+    let needed = width
+        .checked_mul(height)
+        .and_then(|n| n.checked_mul(12))
+        .ok_or("PFM size overflows")?;
+    let data = bytes
+        .get(pos..pos + needed)
+        .ok_or("PFM data is shorter than its header says")?;
+    let texels = data
+        .chunks_exact(12)
+        .map(|c| {
+            let f = |i: usize| {
+                let b = [c[i], c[i + 1], c[i + 2], c[i + 3]];
+                (if endian < 0.0 {
+                    f32::from_le_bytes(b)
+                } else {
+                    f32::from_be_bytes(b)
+                }) as f64
+            };
+            DVec3::new(f(0), f(4), f(8))
+        })
+        .collect();
+    Ok(CubeMap {
+        block: width / 3,
+        width,
+        texels,
+        scale,
+    })
+}

@@ -1,0 +1,981 @@
+//! The Cornell course's XML scene format, both variants (2010 and 2015), as
+//! specified in `docs/cornell-scene-format.md` of the shared material and
+//! summarised with our extensions in `docs/scene-format.md`.
+//!
+//! Element names are case-insensitive; `type`, `name` and `ref` attributes
+//! work on any element; names must be defined before they are used. Every
+//! error names the file, line and column of the offending element and what
+//! was expected there.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use glam::{DMat4, DVec3};
+use roxmltree::{Document, Node};
+
+use crate::camera::{Camera, CameraKind};
+use crate::light::Light;
+use crate::mesh::obj::{load_obj, ObjRule};
+use crate::mesh::{msh::load_msh, MeshData, MeshError};
+use crate::scene::{Scene, Variant};
+use crate::shader::{Fresnel, Shader};
+use crate::surface::transformed::{rotation_degrees, scaling, translation};
+use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
+use crate::texture::{CubeMap, Texture, Wrap};
+
+mod values;
+
+pub use values::{parse_int, parse_number, parse_size, parse_vector};
+
+/// Largest image side accepted (pixels).
+pub const MAX_IMAGE_SIDE: i64 = 65_536;
+/// Largest image accepted (pixels in all).
+pub const MAX_IMAGE_PIXELS: i64 = 1 << 28;
+/// Largest `<samples>` value accepted.
+pub const MAX_SAMPLES: i64 = 1 << 16;
+/// Deepest group nesting accepted (deeper scenes would exhaust the stack).
+pub const MAX_NESTING: usize = 1_000;
+
+/// A scene file that could not be loaded.
+#[derive(Debug)]
+pub enum SceneError {
+    /// A problem at a place in the scene file.
+    At {
+        /// The scene file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u32,
+        /// 1-based column.
+        column: u32,
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// The scene file itself could not be read.
+    Unreadable {
+        /// The scene file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A mesh file the scene names is missing or malformed.
+    Mesh(MeshError),
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::At {
+                path,
+                line,
+                column,
+                message,
+            } => write!(f, "{}:{line}:{column}: {message}", path.display()),
+            SceneError::Unreadable { path, source } => {
+                write!(f, "{}: cannot read scene file: {source}", path.display())
+            }
+            SceneError::Mesh(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A loaded scene and the warnings met on the way (unknown attributes,
+/// skipped polygons, ...), each already located as `FILE:LINE:COL: ...`.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Non-fatal remarks for the user.
+    pub warnings: Vec<String>,
+}
+
+/// Reads and parses the scene file at `path`; meshes are resolved relative
+/// to its folder.
+pub fn load_scene(path: &Path) -> Result<LoadedScene> {
+    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Unreadable {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_scene(&text, path)
+}
+
+/// Parses scene text; `path` names it in messages and anchors relative mesh
+/// file names.
+pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene> {
+    let doc = Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        SceneError::At {
+            path: path.to_path_buf(),
+            line: pos.row,
+            column: pos.col,
+            message: format!("malformed XML: {e}"),
+        }
+    })?;
+    let root = doc.root_element();
+    let variant = detect_variant(root);
+    let mut loader = Loader {
+        doc: &doc,
+        path,
+        dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
+        variant,
+        names: HashMap::new(),
+        warnings: Vec::new(),
+        meshes: HashMap::new(),
+        depth: 0,
+    };
+    let scene = loader.scene(root)?;
+    Ok(LoadedScene {
+        scene,
+        warnings: loader.warnings,
+    })
+}
+
+/// Spec §1: a `type` attribute on `<camera>` marks the 2015 variant.
+fn detect_variant(root: Node) -> Variant {
+    let typed_camera = root
+        .children()
+        .filter(Node::is_element)
+        .any(|c| c.tag_name().name().eq_ignore_ascii_case("camera") && c.has_attribute("type"));
+    if typed_camera {
+        Variant::Cornell2015
+    } else {
+        Variant::Cornell2010
+    }
+}
+
+/// Something stored under a `name=` for later `ref=`.
+#[derive(Clone)]
+enum Named {
+    Shader(Arc<Shader>),
+    Surface,
+    Camera(Camera),
+    Light(Light),
+    Texture(Arc<Texture>),
+    /// The text of a value element (vectors, numbers, file names), reparsed
+    /// wherever it is referenced.
+    Text(String),
+    /// An object element whose kind is not reusable by reference.
+    Other(&'static str),
+}
+
+impl Named {
+    fn kind(&self) -> &'static str {
+        match self {
+            Named::Shader(_) => "shader",
+            Named::Surface => "surface",
+            Named::Camera(_) => "camera",
+            Named::Light(_) => "light",
+            Named::Texture(_) => "texture",
+            Named::Text(_) => "value",
+            Named::Other(k) => k,
+        }
+    }
+}
+
+struct Loader<'a, 'input> {
+    doc: &'a Document<'input>,
+    path: &'a Path,
+    dir: PathBuf,
+    variant: Variant,
+    names: HashMap<String, Named>,
+    warnings: Vec<String>,
+    meshes: HashMap<PathBuf, Arc<MeshData>>,
+    depth: usize,
+}
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// The element's name as written.
+fn tag<'a>(node: Node<'a, '_>) -> &'a str {
+    node.tag_name().name()
+}
+
+/// The element's name folded for case-insensitive matching.
+fn key(node: Node) -> String {
+    tag(node).to_ascii_lowercase()
+}
+
+fn elements<'a, 'input>(node: Node<'a, 'input>) -> impl Iterator<Item = Node<'a, 'input>> {
+    node.children().filter(Node::is_element)
+}
+
+impl<'a, 'input> Loader<'a, 'input> {
+    fn error(&self, node: Node, message: impl Into<String>) -> SceneError {
+        let pos = self.doc.text_pos_at(node.range().start);
+        SceneError::At {
+            path: self.path.to_path_buf(),
+            line: pos.row,
+            column: pos.col,
+            message: message.into(),
+        }
+    }
+
+    fn warn(&mut self, node: Node, message: impl fmt::Display) {
+        let pos = self.doc.text_pos_at(node.range().start);
+        self.warnings.push(format!(
+            "{}:{}:{}: warning: {message}",
+            self.path.display(),
+            pos.row,
+            pos.col
+        ));
+    }
+
+    fn is2015(&self) -> bool {
+        self.variant == Variant::Cornell2015
+    }
+
+    fn unknown_element(&self, child: Node, parent: &str, expected: &[&str]) -> SceneError {
+        self.error(
+            child,
+            format!(
+                "unknown element <{}> in {parent}; expected {}",
+                tag(child),
+                expected.join(", ")
+            ),
+        )
+    }
+
+    /// Warns about attributes other than `type`, `name` and `ref`.
+    fn check_attributes(&mut self, node: Node) {
+        let unknown: Vec<String> = node
+            .attributes()
+            .filter(|a| !matches!(a.name(), "type" | "name" | "ref"))
+            .map(|a| a.name().to_string())
+            .collect();
+        for name in unknown {
+            self.warn(
+                node,
+                format!("ignoring unknown attribute '{name}' on <{}>", tag(node)),
+            );
+        }
+    }
+
+    /// The object stored under the element's `ref`, if it has one.
+    fn referenced(&self, node: Node) -> Result<Option<Named>> {
+        let Some(name) = node.attribute("ref") else {
+            return Ok(None);
+        };
+        match self.names.get(name) {
+            Some(n) => Ok(Some(n.clone())),
+            None => Err(self.error(
+                node,
+                format!(
+                    "<{} ref=\"{name}\">: no element named '{name}' is defined before this point",
+                    tag(node)
+                ),
+            )),
+        }
+    }
+
+    fn remember(&mut self, node: Node, value: Named) {
+        if let Some(name) = node.attribute("name") {
+            self.names.insert(name.to_string(), value);
+        }
+    }
+
+    fn wrong_kind(&self, node: Node, found: &Named, expected: &str) -> SceneError {
+        self.error(
+            node,
+            format!(
+                "<{} ref=\"{}\"> names a {}, but a {expected} is expected here",
+                tag(node),
+                node.attribute("ref").unwrap_or_default(),
+                found.kind()
+            ),
+        )
+    }
+
+    /// The text of a value element (following `ref` to a stored value).
+    fn text(&mut self, node: Node) -> Result<String> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return match named {
+                Named::Text(t) => Ok(t),
+                other => Err(self.wrong_kind(node, &other, "value")),
+            };
+        }
+        let mut text = String::new();
+        for child in node.children() {
+            if child.is_element() {
+                return Err(self.error(
+                    child,
+                    format!(
+                        "unexpected element <{}> inside the value element <{}>",
+                        tag(child),
+                        tag(node)
+                    ),
+                ));
+            }
+            if child.is_comment() {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "a comment inside the value element <{}> is not allowed",
+                        tag(node)
+                    ),
+                ));
+            }
+            if let Some(t) = child.text() {
+                text.push_str(t);
+            }
+        }
+        if text.trim().is_empty() {
+            return Err(self.error(node, format!("<{}> is empty; expected a value", tag(node))));
+        }
+        self.remember(node, Named::Text(text.clone()));
+        Ok(text)
+    }
+
+    fn value<T>(
+        &mut self,
+        node: Node,
+        parse: impl FnOnce(&str) -> std::result::Result<T, String>,
+    ) -> Result<T> {
+        let text = self.text(node)?;
+        parse(&text).map_err(|m| self.error(node, format!("<{}>: {m}", tag(node))))
+    }
+
+    fn number(&mut self, node: Node) -> Result<f64> {
+        self.value(node, parse_number)
+    }
+
+    fn vector(&mut self, node: Node) -> Result<DVec3> {
+        self.value(node, parse_vector)
+    }
+
+    fn positive(&mut self, node: Node) -> Result<f64> {
+        let v = self.number(node)?;
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.error(node, format!("<{}> must be positive, found {v}", tag(node))))
+        }
+    }
+
+    fn scene(&mut self, root: Node) -> Result<Scene> {
+        self.check_attributes(root);
+        let mut camera = None;
+        let mut size = None;
+        let mut samples = 1;
+        let mut lights = Vec::new();
+        let mut surfaces = Vec::new();
+        let mut background = DVec3::ZERO;
+        let mut exposure = 1.0;
+        let mut cubemap = None;
+        let mut expected = vec!["camera", "image", "samples", "light", "surface", "shader"];
+        if self.is2015() {
+            expected.extend(["backColor", "exposure", "cubemap"]);
+        }
+        for child in elements(root) {
+            match key(child).as_str() {
+                "camera" => camera = Some(self.camera(child)?),
+                "image" => size = Some(self.image_size(child)?),
+                "samples" => {
+                    let n = self.value(child, parse_int)?;
+                    if !(0..=MAX_SAMPLES).contains(&n) {
+                        return Err(self.error(
+                            child,
+                            format!("<samples> must be between 0 and {MAX_SAMPLES}, found {n}"),
+                        ));
+                    }
+                    samples = Scene::samples_per_side_for(n as u32);
+                }
+                "light" => lights.push(self.light(child)?),
+                "surface" => surfaces.push(self.surface(child)?),
+                "shader" => {
+                    self.shader(child)?;
+                }
+                "backcolor" if self.is2015() => background = self.vector(child)?,
+                "exposure" if self.is2015() => {
+                    // Spec §2.6: a value <= 0 is ignored.
+                    let e = self.number(child)?;
+                    if e > 0.0 {
+                        exposure = e;
+                    }
+                }
+                "cubemap" if self.is2015() => cubemap = Some(self.cubemap(child)?),
+                "backcolor" | "exposure" | "cubemap" => {
+                    return Err(self.error(
+                        child,
+                        format!(
+                            "<{}> belongs to the 2015 variant of the format, but this scene is a 2010 scene (its <camera> has no type attribute)",
+                            tag(child)
+                        ),
+                    ))
+                }
+                _ => return Err(self.unknown_element(child, &format!("<{}>", tag(root)), &expected)),
+            }
+        }
+        let camera =
+            camera.ok_or_else(|| self.error(root, "the scene has no <camera>; expected one"))?;
+        let (width, height) = size.ok_or_else(|| {
+            self.error(
+                root,
+                "the scene has no <image> size; expected <image>WIDTH HEIGHT</image>",
+            )
+        })?;
+        Ok(Scene {
+            variant: self.variant,
+            camera,
+            width,
+            height,
+            samples_per_side: samples,
+            lights,
+            surfaces,
+            background,
+            exposure,
+            cubemap,
+        })
+    }
+
+    fn image_size(&mut self, node: Node) -> Result<(u32, u32)> {
+        let (w, h) = self.value(node, parse_size)?;
+        if w < 1 || h < 1 || w > MAX_IMAGE_SIDE || h > MAX_IMAGE_SIDE || w * h > MAX_IMAGE_PIXELS {
+            return Err(self.error(
+                node,
+                format!(
+                    "<image> size {w} x {h} is out of range; expected sides from 1 to {MAX_IMAGE_SIDE} and at most {MAX_IMAGE_PIXELS} pixels"
+                ),
+            ));
+        }
+        Ok((w as u32, h as u32))
+    }
+
+    fn camera(&mut self, node: Node) -> Result<Camera> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return match named {
+                Named::Camera(c) => Ok(c),
+                other => Err(self.wrong_kind(node, &other, "camera")),
+            };
+        }
+        let mut cam = Camera::default_2010();
+        if self.is2015() {
+            cam.proj_normal = DVec3::ZERO;
+            cam.kind = match node.attribute("type") {
+                Some("PerspectiveCamera") => CameraKind::Perspective2015,
+                Some("ParallelCamera") | Some("OrthographicCamera") => CameraKind::Parallel2015,
+                Some(other) => {
+                    return Err(self.error(
+                        node,
+                        format!("unknown camera type '{other}'; expected PerspectiveCamera, ParallelCamera or OrthographicCamera"),
+                    ))
+                }
+                None => unreachable!("2015 scenes are recognised by the camera type"),
+            };
+        }
+        let expected = [
+            "viewPoint",
+            "viewDir",
+            "viewUp",
+            "projNormal",
+            "projDistance",
+            "viewWidth",
+            "viewHeight",
+        ];
+        for child in elements(node) {
+            match key(child).as_str() {
+                "viewpoint" => cam.view_point = self.vector(child)?,
+                "viewdir" => cam.view_dir = self.nonzero_vector(child)?,
+                "viewup" => cam.view_up = self.nonzero_vector(child)?,
+                "projnormal" => cam.proj_normal = self.vector(child)?,
+                "projdistance" if cam.kind == CameraKind::Parallel2015 => {
+                    return Err(
+                        self.error(child, "<projDistance> does not apply to a parallel camera")
+                    )
+                }
+                "projdistance" => cam.proj_distance = self.positive(child)?,
+                "viewwidth" => cam.view_width = self.positive(child)?,
+                "viewheight" => cam.view_height = self.positive(child)?,
+                _ => return Err(self.unknown_element(child, "<camera>", &expected)),
+            }
+        }
+        if cam.kind == CameraKind::Perspective2010 && cam.proj_normal == DVec3::ZERO {
+            return Err(self.error(node, "<projNormal> must not be the zero vector"));
+        }
+        if cam.view_up.cross(cam.view_dir) == DVec3::ZERO {
+            return Err(self.error(node, "<viewUp> is parallel to <viewDir>; expected an up direction that differs from the view direction"));
+        }
+        self.remember(node, Named::Camera(cam.clone()));
+        Ok(cam)
+    }
+
+    fn nonzero_vector(&mut self, node: Node) -> Result<DVec3> {
+        let v = self.vector(node)?;
+        if v == DVec3::ZERO {
+            return Err(self.error(node, format!("<{}> must not be the zero vector", tag(node))));
+        }
+        Ok(v)
+    }
+
+    fn light(&mut self, node: Node) -> Result<Light> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return match named {
+                Named::Light(l) => Ok(l),
+                other => Err(self.wrong_kind(node, &other, "light")),
+            };
+        }
+        let directional =
+            match (self.variant, node.attribute("type")) {
+                (_, None) => false,
+                (Variant::Cornell2015, Some("PointLight")) => false,
+                (Variant::Cornell2015, Some("DirectionalLight")) => true,
+                (Variant::Cornell2015, Some(other)) => {
+                    return Err(self.error(
+                        node,
+                        format!(
+                            "unknown light type '{other}'; expected PointLight or DirectionalLight"
+                        ),
+                    ))
+                }
+                (Variant::Cornell2010, Some(other)) => return Err(self.error(
+                    node,
+                    format!(
+                        "unknown light type '{other}'; 2010 scenes use untyped <light> elements"
+                    ),
+                )),
+            };
+        let mut position = DVec3::ZERO;
+        let mut direction = None;
+        let mut intensity = DVec3::ONE;
+        let expected: &[&str] = if directional {
+            &["direction", "intensity"]
+        } else {
+            &["position", "intensity"]
+        };
+        for child in elements(node) {
+            match key(child).as_str() {
+                "position" if !directional => position = self.vector(child)?,
+                "direction" if directional => direction = Some(self.nonzero_vector(child)?),
+                "intensity" => intensity = self.vector(child)?,
+                _ => return Err(self.unknown_element(child, "<light>", expected)),
+            }
+        }
+        let light = if directional {
+            let direction = direction.ok_or_else(|| {
+                self.error(
+                    node,
+                    "a DirectionalLight needs a <direction> (toward the light)",
+                )
+            })?;
+            Light::Directional {
+                direction: direction.normalize(),
+                intensity,
+            }
+        } else {
+            Light::Point {
+                position,
+                intensity,
+            }
+        };
+        self.remember(node, Named::Light(light.clone()));
+        Ok(light)
+    }
+
+    fn shader(&mut self, node: Node) -> Result<Arc<Shader>> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return match named {
+                Named::Shader(s) => Ok(s),
+                other => Err(self.wrong_kind(node, &other, "shader")),
+            };
+        }
+        let mut types = vec!["Lambertian", "Phong", "Glazed", "Glass"];
+        if self.is2015() {
+            types.extend(["RGBNormals", "CookTorrance"]);
+        }
+        let Some(ty) = node.attribute("type") else {
+            return Err(self.error(
+                node,
+                format!(
+                    "<{}> needs a type attribute; expected one of {}",
+                    tag(node),
+                    types.join(", ")
+                ),
+            ));
+        };
+        if !types.contains(&ty) {
+            return Err(self.error(
+                node,
+                format!(
+                    "unknown shader type '{ty}'; expected one of {}",
+                    types.join(", ")
+                ),
+            ));
+        }
+        let mut diffuse = DVec3::ONE;
+        let mut specular = DVec3::ONE;
+        let mut exponent = 1.0;
+        let mut refractive_index = None;
+        let mut substrate = None;
+        let mut fresnel = None;
+        let mut roughness = 1.0;
+        let mut texture = None;
+        let mut expected: Vec<&str> = match ty {
+            "Lambertian" => vec!["diffuseColor"],
+            "Phong" => vec!["diffuseColor", "specularColor", "exponent"],
+            "Glazed" => vec!["refractiveIndex", "substrate", "fresnel"],
+            "Glass" => vec!["refractiveIndex"],
+            "CookTorrance" => vec![
+                "diffuseColor",
+                "specularColor",
+                "roughness",
+                "refractiveIndex",
+            ],
+            _ => vec![],
+        };
+        if !self.is2015() && matches!(ty, "Glazed" | "Glass") {
+            expected.push("exponent");
+        }
+        if self.is2015() {
+            expected.push("texture");
+        }
+        for child in elements(node) {
+            let k = key(child);
+            if !expected.iter().any(|e| e.eq_ignore_ascii_case(&k)) {
+                let shown = if expected.is_empty() {
+                    vec!["no child elements"]
+                } else {
+                    expected.clone()
+                };
+                return Err(self.unknown_element(
+                    child,
+                    &format!("<{} type=\"{ty}\">", tag(node)),
+                    &shown,
+                ));
+            }
+            match k.as_str() {
+                "diffusecolor" => diffuse = self.vector(child)?,
+                "specularcolor" => specular = self.vector(child)?,
+                "exponent" => exponent = self.number(child)?,
+                "refractiveindex" => refractive_index = Some(self.positive(child)?),
+                "roughness" => roughness = self.positive(child)?,
+                "substrate" => substrate = Some(self.shader(child)?),
+                "texture" => texture = Some(self.texture(child)?),
+                "fresnel" => {
+                    let text = self.text(child)?;
+                    fresnel = Some(match text.trim() {
+                        "schlick" => Fresnel::Schlick,
+                        "exact" => Fresnel::Exact,
+                        other => {
+                            return Err(self.error(
+                                child,
+                                format!("<fresnel> must be 'schlick' or 'exact', found '{other}'"),
+                            ))
+                        }
+                    });
+                }
+                _ => unreachable!("filtered by the expected list"),
+            }
+        }
+        let need_index = |this: &Self| {
+            refractive_index
+                .ok_or_else(|| this.error(node, format!("a {ty} shader needs a <refractiveIndex>")))
+        };
+        let shader = match ty {
+            "Lambertian" => Shader::Lambertian { diffuse, texture },
+            "Phong" => Shader::Phong {
+                diffuse,
+                specular,
+                exponent,
+                texture,
+            },
+            "Glazed" => Shader::Glazed {
+                refractive_index: need_index(self)?,
+                substrate: substrate.ok_or_else(|| {
+                    self.error(node, "a Glazed shader needs a <substrate> shader")
+                })?,
+                fresnel: fresnel.unwrap_or(if self.is2015() {
+                    Fresnel::Exact
+                } else {
+                    Fresnel::Schlick
+                }),
+            },
+            "Glass" => Shader::Glass {
+                refractive_index: need_index(self)?,
+            },
+            "RGBNormals" => Shader::RgbNormals,
+            _ => Shader::CookTorrance {
+                diffuse,
+                specular,
+                roughness,
+                refractive_index: refractive_index.unwrap_or(0.0),
+                texture,
+            },
+        };
+        let shader = Arc::new(shader);
+        self.remember(node, Named::Shader(shader.clone()));
+        Ok(shader)
+    }
+
+    fn texture(&mut self, node: Node) -> Result<Arc<Texture>> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return match named {
+                Named::Texture(t) => Ok(t),
+                other => Err(self.wrong_kind(node, &other, "texture")),
+            };
+        }
+        let wrap = match node.attribute("type") {
+            Some("ClampTexture") => Wrap::Clamp,
+            Some("RepeatTexture") => Wrap::Repeat,
+            other => {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "unknown texture type '{}'; expected ClampTexture or RepeatTexture",
+                        other.unwrap_or("")
+                    ),
+                ))
+            }
+        };
+        let mut file = None;
+        for child in elements(node) {
+            match key(child).as_str() {
+                "image" => file = Some((child, self.text(child)?.trim().to_string())),
+                _ => return Err(self.unknown_element(child, "<texture>", &["image"])),
+            }
+        }
+        let (at, file) =
+            file.ok_or_else(|| self.error(node, "a texture needs an <image> file name"))?;
+        let path = self.dir.join(&file);
+        let img = image::open(&path)
+            .map_err(|e| {
+                self.error(
+                    at,
+                    format!("cannot read texture image '{}': {e}", path.display()),
+                )
+            })?
+            .to_rgb8();
+        let texels = img
+            .pixels()
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / 255.0)
+            .collect();
+        let texture = Arc::new(Texture {
+            wrap,
+            width: img.width(),
+            height: img.height(),
+            texels,
+        });
+        self.remember(node, Named::Texture(texture.clone()));
+        Ok(texture)
+    }
+
+    fn cubemap(&mut self, node: Node) -> Result<Arc<CubeMap>> {
+        self.check_attributes(node);
+        let mut file = None;
+        let mut scale = 1.0;
+        for child in elements(node) {
+            match key(child).as_str() {
+                "filename" => file = Some((child, self.text(child)?.trim().to_string())),
+                "scalefactor" => scale = self.number(child)?,
+                _ => {
+                    return Err(self.unknown_element(
+                        child,
+                        "<cubemap>",
+                        &["filename", "scaleFactor"],
+                    ))
+                }
+            }
+        }
+        let (at, file) = file.ok_or_else(|| self.error(node, "a <cubemap> needs a <filename>"))?;
+        // The framework resolves it against the working directory; we also
+        // look beside the scene, where users keep it.
+        let candidates = [PathBuf::from(&file), self.dir.join(&file)];
+        let path = candidates
+            .iter()
+            .find(|p| p.is_file())
+            .ok_or_else(|| self.error(at, format!("cube map file '{file}' not found (looked in the working directory and beside the scene)")))?;
+        let map = crate::texture::read_pfm_cubemap(path, scale)
+            .map_err(|m| self.error(at, format!("{}: {m}", path.display())))?;
+        let map = Arc::new(map);
+        self.remember(node, Named::Other("cubemap"));
+        Ok(map)
+    }
+
+    fn surface(&mut self, node: Node) -> Result<Surface> {
+        self.check_attributes(node);
+        if let Some(named) = self.referenced(node)? {
+            return Err(match named {
+                Named::Surface => self.error(
+                    node,
+                    format!(
+                        "<surface ref=\"{}\">: reusing a named surface is instancing, which this version of arbor does not support yet; copy the surface instead",
+                        node.attribute("ref").unwrap_or_default()
+                    ),
+                ),
+                other => self.wrong_kind(node, &other, "surface"),
+            });
+        }
+        let mut types = vec!["Sphere", "Box", "Mesh", "Group"];
+        if self.is2015() {
+            types.push("Cylinder");
+        }
+        let ty = match node.attribute("type") {
+            Some(t) if types.contains(&t) => t,
+            Some(t) => {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "unknown surface type '{t}'; expected one of {}",
+                        types.join(", ")
+                    ),
+                ))
+            }
+            None => {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "<{}> needs a type attribute; expected one of {}",
+                        tag(node),
+                        types.join(", ")
+                    ),
+                ))
+            }
+        };
+        let expected: &[&str] = match ty {
+            "Sphere" => &["center", "radius", "shader"],
+            "Box" => &["minPt", "maxPt", "shader"],
+            "Mesh" => &["data", "shader"],
+            "Cylinder" => &["center", "radius", "height", "shader"],
+            _ => &["translate", "rotate", "scale", "surface", "shader"],
+        };
+        let mut shader = None;
+        let mut center = DVec3::ZERO;
+        let mut radius = 1.0;
+        let mut height = 1.0;
+        let mut min = DVec3::ZERO;
+        let mut max = DVec3::ZERO;
+        let mut data = None;
+        let mut transform = DMat4::IDENTITY;
+        let mut children = Vec::new();
+        if ty == "Group" {
+            self.depth += 1;
+            if self.depth > MAX_NESTING {
+                return Err(self.error(
+                    node,
+                    format!("groups are nested more than {MAX_NESTING} deep"),
+                ));
+            }
+        }
+        for child in elements(node) {
+            let k = key(child);
+            if !expected.iter().any(|e| e.eq_ignore_ascii_case(&k)) {
+                return Err(self.unknown_element(
+                    child,
+                    &format!("<{} type=\"{ty}\">", tag(node)),
+                    expected,
+                ));
+            }
+            match k.as_str() {
+                "shader" => shader = Some(self.shader(child)?),
+                "center" => center = self.vector(child)?,
+                "radius" => radius = self.positive(child)?,
+                "height" => height = self.positive(child)?,
+                "minpt" => min = self.vector(child)?,
+                "maxpt" => max = self.vector(child)?,
+                "data" => data = Some((child, self.text(child)?.trim().to_string())),
+                "surface" => children.push(self.surface(child)?),
+                "translate" | "rotate" | "scale" => {
+                    let v = self.vector(child)?;
+                    let m = match k.as_str() {
+                        "translate" => translation(v),
+                        "rotate" => rotation_degrees(v),
+                        _ => {
+                            if v.x == 0.0 || v.y == 0.0 || v.z == 0.0 {
+                                return Err(self.error(child, "<scale> factors must not be zero"));
+                            }
+                            scaling(v)
+                        }
+                    };
+                    // Spec §5.5: 2010 applies the last element first, 2015 the first.
+                    transform = match self.variant {
+                        Variant::Cornell2010 => transform * m,
+                        Variant::Cornell2015 => m * transform,
+                    };
+                }
+                _ => unreachable!("filtered by the expected list"),
+            }
+        }
+        let shader = shader.unwrap_or_else(|| Arc::new(Shader::default_lambertian()));
+        let surface = match ty {
+            "Sphere" => Surface::Sphere(Sphere {
+                center,
+                radius,
+                shader,
+            }),
+            "Box" => {
+                if !(min.cmple(max).all()) {
+                    return Err(self.error(node, format!("a Box needs minPt <= maxPt on every axis; found minPt {min} and maxPt {max}")));
+                }
+                Surface::Box(BoxSurface { min, max, shader })
+            }
+            "Cylinder" => Surface::Cylinder(Cylinder {
+                center,
+                radius,
+                height,
+                shader,
+            }),
+            "Mesh" => {
+                let (at, file) = data.ok_or_else(|| {
+                    self.error(node, "a Mesh needs a <data> element naming its mesh file")
+                })?;
+                let data = self.mesh(at, &file)?;
+                Surface::Mesh(MeshSurface { data, shader })
+            }
+            _ => {
+                self.depth -= 1;
+                Surface::Group(Group {
+                    transform,
+                    children,
+                })
+            }
+        };
+        self.remember(node, Named::Surface);
+        Ok(surface)
+    }
+
+    fn mesh(&mut self, at: Node, file: &str) -> Result<Arc<MeshData>> {
+        let path = self.dir.join(file);
+        if let Some(m) = self.meshes.get(&path) {
+            return Ok(m.clone());
+        }
+        if !path.is_file() {
+            return Err(self.error(at, format!("mesh file '{}' not found", path.display())));
+        }
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let data = match ext.as_deref() {
+            Some("msh") => load_msh(&path).map_err(SceneError::Mesh)?,
+            Some("obj") => {
+                let obj = load_obj(&path, ObjRule::Cornell2015).map_err(SceneError::Mesh)?;
+                if obj.skipped_polygons > 0 {
+                    self.warn(
+                        at,
+                        format!(
+                            "{}: skipped {} faces with more than 3 corners (the 2015 reader accepts triangles only)",
+                            path.display(),
+                            obj.skipped_polygons
+                        ),
+                    );
+                }
+                obj.mesh
+            }
+            _ => {
+                return Err(self.error(
+                    at,
+                    format!("mesh file '{file}' has an unknown type; expected a .msh or .obj file"),
+                ))
+            }
+        };
+        let data = Arc::new(data);
+        self.meshes.insert(path, data.clone());
+        Ok(data)
+    }
+}
