@@ -10,7 +10,9 @@ mod ploc;
 mod sweep;
 mod topdown;
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
+
+use rayon::prelude::*;
 
 use crate::util::{prepare, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
@@ -129,18 +131,49 @@ impl Default for BvhParams {
     }
 }
 
-/// A primitive during the build: its box and id.
+/// A primitive during the build: its box in SIMD lanes, with the primitive
+/// id's bits parked in `min.w`. Arithmetic on the `w` lanes yields junk that
+/// is never read; the id is only ever read from a stored, copied `Ref`, and
+/// copies keep bits intact.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ref {
-    pub b: Aabb,
-    pub id: u32,
+    pub min: Vec4,
+    pub max: Vec4,
 }
 
 impl Ref {
-    /// Centre of the box, halved before adding so huge boxes cannot overflow.
+    /// The reference for primitive `id` with box `b`.
+    #[inline(always)]
+    pub fn new(id: u32, b: &Aabb) -> Self {
+        Ref {
+            min: b.min.extend(f32::from_bits(id)),
+            max: b.max.extend(0.0),
+        }
+    }
+
+    /// The primitive id.
+    #[inline(always)]
+    pub fn id(&self) -> u32 {
+        self.min.w.to_bits()
+    }
+
+    /// The box.
+    #[inline(always)]
+    pub fn aabb(&self) -> Aabb {
+        Aabb::new(self.min.truncate(), self.max.truncate())
+    }
+
+    /// Centre of the box (`w` is junk), halved before adding so that huge
+    /// boxes cannot overflow.
+    #[inline(always)]
+    pub fn centroid4(&self) -> Vec4 {
+        self.min * 0.5 + self.max * 0.5
+    }
+
+    /// Centre of the box.
     #[inline(always)]
     pub fn centroid(&self) -> Vec3 {
-        self.b.min * 0.5 + self.b.max * 0.5
+        self.centroid4().truncate()
     }
 }
 
@@ -163,7 +196,11 @@ impl Bvh {
         params: &BvhParams,
     ) -> Self {
         let prep = prepare(prims);
-        let mut refs: Vec<Ref> = prep.refs.iter().map(|&(id, b)| Ref { b, id }).collect();
+        let mut refs: Vec<Ref> = prep
+            .refs
+            .par_iter()
+            .map(|&(id, b)| Ref::new(id, &b))
+            .collect();
         let mut bvh = Bvh {
             unbounded: prep.unbounded,
             ..Bvh::default()

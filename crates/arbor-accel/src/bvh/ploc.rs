@@ -64,7 +64,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         .iter()
         .enumerate()
         .map(|(i, r)| Tmp {
-            b: r.b,
+            b: r.aabb(),
             left: LEAF,
             right: i as u32,
         })
@@ -162,7 +162,8 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
             gather(&tmp, k, &mut leaf_refs);
             let mut sub: Vec<Ref> = leaf_refs.iter().map(|&i| refs[i as usize]).collect();
             let first = order.len();
-            let d = topdown::recurse(&Median, &mut sub, first, depth, params, &mut nodes);
+            let bounds = topdown::bounds_of(&sub);
+            let d = topdown::recurse(&Median, &mut sub, first, depth, params, &mut nodes, bounds);
             order.extend(sub);
             max_depth = max_depth.max(d);
         } else {
@@ -172,7 +173,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
             stack.push((t.left as usize, depth + 1, None));
         }
     }
-    (nodes, order.iter().map(|r| r.id).collect(), max_depth)
+    (nodes, order.iter().map(Ref::id).collect(), max_depth)
 }
 
 /// Appends the reference indices of the leaves below `k`.

@@ -64,7 +64,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         &mut nodes,
         &mut Scratch::default(),
     );
-    let order = orders[0].iter().map(|&i| refs[i as usize].id).collect();
+    let order = orders[0].iter().map(|&i| refs[i as usize].id()).collect();
     (nodes, order, depth)
 }
 
@@ -80,7 +80,7 @@ fn recurse(
     let n = orders[0].len();
     let b = orders[0]
         .iter()
-        .fold(Aabb::EMPTY, |b, &i| b.union(&data.refs[i as usize].b));
+        .fold(Aabb::EMPTY, |b, &i| b.union(&data.refs[i as usize].aabb()));
     let area = b.surface_area();
     let (ct, ci) = (params.traversal_cost, params.intersection_cost);
     let mut best: Option<(f32, usize, usize)> = None;
@@ -90,12 +90,12 @@ fn recurse(
             // Right-to-left: area of everything from position i on.
             let mut acc = Aabb::EMPTY;
             for i in (1..n).rev() {
-                acc = acc.union(&data.refs[order[i] as usize].b);
+                acc = acc.union(&data.refs[order[i] as usize].aabb());
                 scratch.area[i] = acc.surface_area();
             }
             let mut left = Aabb::EMPTY;
             for i in 1..n {
-                left = left.union(&data.refs[order[i - 1] as usize].b);
+                left = left.union(&data.refs[order[i - 1] as usize].aabb());
                 let cost = left.surface_area() * i as f32 + scratch.area[i] * (n - i) as f32;
                 let better = match best {
                     None => cost.is_finite(),

@@ -4,18 +4,24 @@
 
 use rayon::prelude::*;
 
+use glam::{Vec3, Vec4};
+
 use super::{append_subtree, BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
 use crate::Aabb;
 
 /// Chunk of references binned or bounded by one task in parallel loops.
 const CHUNK: usize = 1 << 14;
 
+/// Box and centroid box of a node.
+pub(super) type Bounds = (Aabb, Aabb);
+
 /// The choice for one node.
 pub(super) enum Split {
     /// Make a leaf.
     Leaf,
-    /// The references were reordered so that `refs[..k]` form the left child.
-    At(usize),
+    /// The references were reordered so that `refs[..k]` form the left
+    /// child; the children's bounds come along when the splitter knows them.
+    At(usize, Option<[Bounds; 2]>),
 }
 
 /// One node's split decision.
@@ -33,28 +39,35 @@ pub(super) fn build<S: Splitter>(
     params: &BvhParams,
 ) -> (Vec<BvhNode>, Vec<u32>, usize) {
     let mut nodes = Vec::with_capacity(2 * refs.len() / params.leaf_size.max(1) + 1);
-    let depth = recurse(s, refs, 0, 0, params, &mut nodes);
-    let order = refs.iter().map(|r| r.id).collect();
+    let bounds = bounds_of(refs);
+    let depth = recurse(s, refs, 0, 0, params, &mut nodes, bounds);
+    let order = if refs.len() > 2 * CHUNK {
+        refs.par_iter().map(Ref::id).collect()
+    } else {
+        refs.iter().map(Ref::id).collect()
+    };
     (nodes, order, depth)
 }
 
 /// Box and centroid box of `refs`; min and max are exact, so the parallel
 /// reduction gives the same answer in any order.
-pub(super) fn bounds_of(refs: &[Ref]) -> (Aabb, Aabb) {
-    let fold = |(b, c): (Aabb, Aabb), r: &Ref| (b.union(&r.b), c.grow(r.centroid()));
-    let merge = |(b0, c0): (Aabb, Aabb), (b1, c1): (Aabb, Aabb)| (b0.union(&b1), c0.union(&c1));
-    let empty = (Aabb::EMPTY, Aabb::EMPTY);
-    if refs.len() > 2 * CHUNK {
+pub(super) fn bounds_of(refs: &[Ref]) -> Bounds {
+    let fold =
+        |acc: [B4; 2], r: &Ref| [acc[0].grow(r.min, r.max), acc[1].grow_point(r.centroid4())];
+    let merge = |a: [B4; 2], b: [B4; 2]| [a[0].union(&b[0]), a[1].union(&b[1])];
+    let empty = [B4::EMPTY; 2];
+    let [b, c] = if refs.len() > 2 * CHUNK {
         refs.par_chunks(CHUNK)
             .map(|c| c.iter().fold(empty, fold))
             .reduce(|| empty, merge)
     } else {
         refs.iter().fold(empty, fold)
-    }
+    };
+    (b.aabb(), c.aabb())
 }
 
 /// Builds the subtree over `refs` (which occupy primitive slots from
-/// `first`) into `out`; returns the subtree's depth below `depth`.
+/// `first`, with the given bounds) into `out`; returns the subtree's depth.
 pub(super) fn recurse<S: Splitter>(
     s: &S,
     refs: &mut [Ref],
@@ -62,9 +75,9 @@ pub(super) fn recurse<S: Splitter>(
     depth: usize,
     params: &BvhParams,
     out: &mut Vec<BvhNode>,
+    (b, cb): Bounds,
 ) -> usize {
     let n = refs.len();
-    let (b, cb) = bounds_of(refs);
     let split = if n == 1 {
         Split::Leaf
     } else if depth >= FORCE_MEDIAN_DEPTH {
@@ -77,28 +90,29 @@ pub(super) fn recurse<S: Splitter>(
     } else {
         s.split(refs, &b, &cb, params)
     };
-    let k = match split {
+    let (k, child_bounds) = match split {
         Split::Leaf => {
             out.push(BvhNode::leaf(&b, first, n));
             return depth;
         }
         // A splitter that failed to separate anything falls back to halves.
-        Split::At(k) if k == 0 || k >= n => n / 2,
-        Split::At(k) => k,
+        Split::At(k, _) if k == 0 || k >= n => (n / 2, None),
+        Split::At(k, cb) => (k, cb),
     };
     let me = out.len();
     out.push(BvhNode::interior(&b, 0));
     let (left, right) = refs.split_at_mut(k);
+    let [lb, rb] = child_bounds.unwrap_or_else(|| [bounds_of(left), bounds_of(right)]);
     if n >= params.parallel_threshold {
         let ((lv, ld), (rv, rd)) = rayon::join(
             || {
                 let mut v = Vec::new();
-                let d = recurse(s, left, first, depth + 1, params, &mut v);
+                let d = recurse(s, left, first, depth + 1, params, &mut v, lb);
                 (v, d)
             },
             || {
                 let mut v = Vec::new();
-                let d = recurse(s, right, first + k, depth + 1, params, &mut v);
+                let d = recurse(s, right, first + k, depth + 1, params, &mut v, rb);
                 (v, d)
             },
         );
@@ -107,9 +121,9 @@ pub(super) fn recurse<S: Splitter>(
         append_subtree(out, rv);
         ld.max(rd)
     } else {
-        let ld = recurse(s, left, first, depth + 1, params, out);
+        let ld = recurse(s, left, first, depth + 1, params, out, lb);
         out[me].offset = out.len() as u32;
-        let rd = recurse(s, right, first + k, depth + 1, params, out);
+        let rd = recurse(s, right, first + k, depth + 1, params, out, rb);
         ld.max(rd)
     }
 }
@@ -121,12 +135,12 @@ pub(super) fn median_split(refs: &mut [Ref], axis: usize) -> Split {
     refs.select_nth_unstable_by(k, |a, b| {
         a.centroid()[axis]
             .total_cmp(&b.centroid()[axis])
-            .then(a.id.cmp(&b.id))
+            .then(a.id().cmp(&b.id()))
     });
-    Split::At(k)
+    Split::At(k, None)
 }
 
-/// Moves the references satisfying `left` to the front; returns how many.
+/// Moves the items satisfying `left` to the front; returns how many.
 pub(super) fn partition<T>(items: &mut [T], mut left: impl FnMut(&T) -> bool) -> usize {
     let mut i = 0;
     let mut j = items.len();
@@ -146,6 +160,50 @@ pub(super) fn partition<T>(items: &mut [T], mut left: impl FnMut(&T) -> bool) ->
     }
 }
 
+/// A box in SIMD lanes (`w` ignored), for the inner loops.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct B4 {
+    min: Vec4,
+    max: Vec4,
+}
+
+impl B4 {
+    const EMPTY: B4 = B4 {
+        min: Vec4::splat(f32::INFINITY),
+        max: Vec4::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    fn grow(&self, min: Vec4, max: Vec4) -> B4 {
+        B4 {
+            min: self.min.min(min),
+            max: self.max.max(max),
+        }
+    }
+
+    #[inline(always)]
+    fn grow_point(&self, p: Vec4) -> B4 {
+        self.grow(p, p)
+    }
+
+    #[inline(always)]
+    fn union(&self, o: &B4) -> B4 {
+        self.grow(o.min, o.max)
+    }
+
+    #[inline(always)]
+    fn area(&self) -> f32 {
+        // Empty boxes have negative extents; clamping gives them zero area
+        // without a branch.
+        let e = (self.max - self.min).max(Vec4::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    fn aabb(&self) -> Aabb {
+        Aabb::new(self.min.truncate(), self.max.truncate())
+    }
+}
+
 /// Split at the middle of the centroid box's largest axis.
 pub(super) struct Center;
 
@@ -160,7 +218,7 @@ impl Splitter for Center {
             // All centroids coincide along every axis: any halving will do.
             return median_split(refs, axis);
         }
-        Split::At(partition(refs, |r| r.centroid()[axis] < mid))
+        Split::At(partition(refs, |r| r.centroid()[axis] < mid), None)
     }
 }
 
@@ -177,26 +235,30 @@ impl Splitter for Median {
 }
 
 /// Most bins supported.
-const MAX_BINS: usize = 64;
+const MAX_BINS: usize = 32;
+
+/// Nodes this small are binned with 8 bins whatever `params.bins` says:
+/// clearing and sweeping more bins than references costs more than it gains.
+const SMALL: usize = 32;
 
 /// Per-axis bins: box and count of the references whose centroid falls in.
 #[derive(Clone, Copy)]
-struct Bins {
-    b: [[Aabb; MAX_BINS]; 3],
-    n: [[u32; MAX_BINS]; 3],
+struct Bins<const B: usize> {
+    b: [[B4; B]; 3],
+    n: [[u32; B]; 3],
 }
 
-impl Bins {
+impl<const B: usize> Bins<B> {
     fn new() -> Self {
         Bins {
-            b: [[Aabb::EMPTY; MAX_BINS]; 3],
-            n: [[0; MAX_BINS]; 3],
+            b: [[B4::EMPTY; B]; 3],
+            n: [[0; B]; 3],
         }
     }
 
-    fn merge(mut self, o: &Bins, bins: usize) -> Self {
+    fn merge(mut self, o: &Self) -> Self {
         for a in 0..3 {
-            for i in 0..bins {
+            for i in 0..B {
                 self.b[a][i] = self.b[a][i].union(&o.b[a][i]);
                 self.n[a][i] += o.n[a][i];
             }
@@ -208,113 +270,195 @@ impl Bins {
 /// Maps centroids to bins along each axis.
 #[derive(Clone, Copy)]
 struct Binner {
-    origin: glam::Vec3,
-    scale: glam::Vec3,
-    last: usize,
+    origin: Vec4,
+    scale: Vec4,
+    last: f32,
 }
 
 impl Binner {
+    /// Bin coordinates along x, y, z, clamped to `[0, last]`; the bin is the
+    /// integer part. Comparing the unfloored value with an integer bin
+    /// boundary `i` gives the same answer as comparing its floor, so the
+    /// partition can skip the rounding.
     #[inline(always)]
-    fn bin(&self, c: glam::Vec3, axis: usize) -> usize {
-        // Float-to-int casts saturate (NaN gives 0), so this never leaves range.
-        (((c[axis] - self.origin[axis]) * self.scale[axis]) as usize).min(self.last)
+    fn bins(&self, c: Vec4) -> Vec4 {
+        // Clamping in float keeps NaN (0 * inf) out of the index: `max`
+        // returns the non-NaN operand.
+        ((c - self.origin) * self.scale)
+            .max(Vec4::ZERO)
+            .min(Vec4::splat(self.last))
+    }
+
+    /// Bin indices along x, y, z.
+    #[inline(always)]
+    fn indices(&self, c: Vec4) -> [usize; 3] {
+        let k = truncate(self.bins(c));
+        [k[0] as usize, k[1] as usize, k[2] as usize]
     }
 }
 
+/// Truncates non-negative, in-range lanes to integers with one SIMD
+/// conversion (Rust's `as` casts add saturation checks per lane).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn truncate(v: Vec4) -> [i32; 4] {
+    use std::arch::x86_64::{__m128, _mm_cvttps_epi32};
+    let m: __m128 = v.into();
+    // SAFETY: SSE2 is part of the x86_64 baseline, so the instruction exists.
+    let i = unsafe { _mm_cvttps_epi32(m) };
+    // SAFETY: `__m128i` and `[i32; 4]` have the same size and any bits are
+    // valid for both.
+    unsafe { std::mem::transmute::<std::arch::x86_64::__m128i, [i32; 4]>(i) }
+}
+
+/// Portable fallback of the SIMD truncation.
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn truncate(v: Vec4) -> [i32; 4] {
+    [v.x as i32, v.y as i32, v.z as i32, v.w as i32]
+}
+
 /// Binned SAH over all three axes (Wald 2007): centroids are dropped into
-/// `params.bins` equal-width bins per axis, and only the `bins - 1` planes
-/// between bins are evaluated, making each node linear in its size.
+/// equal-width bins per axis (`params.bins` rounded up to 8, 16 or 32; 8 for
+/// nodes of at most 32 references), and only the planes between bins are
+/// evaluated, making each node linear in its size.
 pub(super) struct Binned;
 
 impl Splitter for Binned {
     fn split(&self, refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhParams) -> Split {
-        let n = refs.len();
-        let bins = params.bins.clamp(2, MAX_BINS);
-        let ext = cb.max - cb.min;
-        let scale = glam::Vec3::select(
-            ext.cmpgt(glam::Vec3::ZERO),
-            glam::Vec3::splat(bins as f32) / ext,
-            glam::Vec3::ZERO,
-        );
-        let binner = Binner {
-            origin: cb.min,
-            scale,
-            last: bins - 1,
-        };
-        let fill = |mut acc: Bins, chunk: &[Ref]| {
-            for r in chunk {
-                let c = r.centroid();
-                for a in 0..3 {
-                    let i = binner.bin(c, a);
-                    acc.b[a][i] = acc.b[a][i].union(&r.b);
-                    acc.n[a][i] += 1;
-                }
-            }
-            acc
-        };
-        let acc = if n > 2 * CHUNK {
-            refs.par_chunks(CHUNK)
-                .map(|c| fill(Bins::new(), c))
-                .reduce(Bins::new, |x, y| x.merge(&y, bins))
+        let bins = if refs.len() <= SMALL {
+            8
         } else {
-            fill(Bins::new(), refs)
+            params.bins.clamp(2, MAX_BINS)
         };
-        let (ct, ci) = (params.traversal_cost, params.intersection_cost);
-        // Costs are compared unnormalised: multiplied through by A(node).
-        let mut best: Option<(f32, usize, usize)> = None;
-        for a in 0..3 {
-            if scale[a] == 0.0 {
-                continue;
-            }
-            let mut right_area = [0f32; MAX_BINS];
-            let mut acc_b = Aabb::EMPTY;
-            for i in (1..bins).rev() {
-                acc_b = acc_b.union(&acc.b[a][i]);
-                right_area[i] = acc_b.surface_area();
-            }
-            let mut left = Aabb::EMPTY;
-            let mut nl = 0u32;
-            #[allow(clippy::needless_range_loop)] // three arrays, one index
-            for i in 1..bins {
-                left = left.union(&acc.b[a][i - 1]);
-                nl += acc.n[a][i - 1];
-                let nr = n as u32 - nl;
-                if nl == 0 || nr == 0 {
-                    continue;
-                }
-                let cost = left.surface_area() * nl as f32 + right_area[i] * nr as f32;
-                if best.is_none_or_gt(cost) {
-                    best = Some((cost, a, i));
-                }
-            }
-        }
-        let area = b.surface_area();
-        let leaf_cost = ci * n as f32 * area;
-        match best {
-            Some((cost, a, i)) => {
-                if n <= params.max_leaf_size && leaf_cost <= ct * area + ci * cost {
-                    return Split::Leaf;
-                }
-                Split::At(partition(refs, |r| binner.bin(r.centroid(), a) < i))
-            }
-            None if n <= params.max_leaf_size => Split::Leaf,
-            None => median_split(refs, cb.largest_axis()),
+        match bins {
+            0..=8 => binned::<8>(refs, b, cb, params),
+            9..=16 => binned::<16>(refs, b, cb, params),
+            _ => binned::<32>(refs, b, cb, params),
         }
     }
 }
 
-/// `Option::is_none_or` with a strict comparison, spelled out for the MSRV.
-trait BestCost {
-    fn is_none_or_gt(&self, cost: f32) -> bool;
+fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhParams) -> Split {
+    let n = refs.len();
+    let ext = cb.max - cb.min;
+    let scale = Vec3::select(
+        ext.cmpgt(Vec3::ZERO),
+        Vec3::splat(B as f32) / ext,
+        Vec3::ZERO,
+    );
+    let binner = Binner {
+        origin: cb.min.extend(0.0),
+        scale: scale.extend(0.0),
+        last: (B - 1) as f32,
+    };
+    let fill = |mut acc: Bins<B>, chunk: &[Ref]| {
+        for r in chunk {
+            let k = binner.indices(r.centroid4());
+            for (a, &i) in k.iter().enumerate() {
+                acc.b[a][i] = acc.b[a][i].grow(r.min, r.max);
+                acc.n[a][i] += 1;
+            }
+        }
+        acc
+    };
+    let acc = if n > 2 * CHUNK {
+        refs.par_chunks(CHUNK)
+            .map(|c| fill(Bins::new(), c))
+            .reduce(Bins::new, |x, y| x.merge(&y))
+    } else {
+        fill(Bins::new(), refs)
+    };
+    let (ct, ci) = (params.traversal_cost, params.intersection_cost);
+    // Costs are compared unnormalised: multiplied through by A(node). The
+    // three axes are swept side by side so their dependency chains overlap.
+    let mut right_area = [[0f32; 3]; B];
+    let mut racc = [B4::EMPTY; 3];
+    for i in (1..B).rev() {
+        for a in 0..3 {
+            racc[a] = racc[a].union(&acc.b[a][i]);
+            right_area[i][a] = racc[a].area();
+        }
+    }
+    let mut best: Option<(f32, usize, usize)> = None;
+    let mut best_cost = f32::INFINITY;
+    let mut lacc = [B4::EMPTY; 3];
+    let mut nl = [0u32; 3];
+    #[allow(clippy::needless_range_loop)] // parallel arrays, one index
+    for i in 1..B {
+        for a in 0..3 {
+            lacc[a] = lacc[a].union(&acc.b[a][i - 1]);
+            nl[a] += acc.n[a][i - 1];
+            let nr = n as u32 - nl[a];
+            let cost = lacc[a].area() * nl[a] as f32 + right_area[i][a] * nr as f32;
+            // Empty sides and flat axes are no split; strict `<` keeps the
+            // first of equal candidates, so the choice is deterministic.
+            if nl[a] != 0 && nr != 0 && scale[a] != 0.0 && cost < best_cost {
+                best_cost = cost;
+                best = Some((cost, a, i));
+            }
+        }
+    }
+    let area = b.surface_area();
+    let leaf_cost = ci * n as f32 * area;
+    let Some((cost, a, i)) = best else {
+        return if n <= params.max_leaf_size {
+            Split::Leaf
+        } else {
+            median_split(refs, cb.largest_axis())
+        };
+    };
+    if n <= params.max_leaf_size && leaf_cost <= ct * area + ci * cost {
+        return Split::Leaf;
+    }
+    // The children's boxes are the unions of their bins; their centroid
+    // boxes are gathered while partitioning.
+    let (lb, rb) = acc.b[a]
+        .iter()
+        .enumerate()
+        .fold((B4::EMPTY, B4::EMPTY), |(l, r), (j, x)| {
+            if j < i {
+                (l.union(x), r)
+            } else {
+                (l, r.union(x))
+            }
+        });
+    let split = i as f32;
+    let (k, lc, rc) = partition_bounds(refs, |c| binner.bins(c)[a] < split);
+    Split::At(k, Some([(lb.aabb(), lc.aabb()), (rb.aabb(), rc.aabb())]))
 }
 
-impl BestCost for Option<(f32, usize, usize)> {
-    #[inline(always)]
-    fn is_none_or_gt(&self, cost: f32) -> bool {
-        match self {
-            None => cost.is_finite(),
-            Some((c, _, _)) => cost < *c,
+/// [`partition`] by centroid, also returning both sides' centroid boxes.
+fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, B4, B4) {
+    let (mut lc, mut rc) = (B4::EMPTY, B4::EMPTY);
+    let mut i = 0;
+    let mut j = refs.len();
+    loop {
+        while i < j {
+            let c = refs[i].centroid4();
+            if !left(c) {
+                break;
+            }
+            lc = lc.grow_point(c);
+            i += 1;
         }
+        while i < j {
+            let c = refs[j - 1].centroid4();
+            if left(c) {
+                break;
+            }
+            rc = rc.grow_point(c);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, lc, rc);
+        }
+        // refs[i] belongs right and refs[j - 1] left: swap and account.
+        lc = lc.grow_point(refs[j - 1].centroid4());
+        rc = rc.grow_point(refs[i].centroid4());
+        refs.swap(i, j - 1);
+        i += 1;
+        j -= 1;
     }
 }
 

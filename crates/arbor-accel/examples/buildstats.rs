@@ -1,0 +1,165 @@
+//! Builds every acceleration structure over a generated (or loaded) mesh and
+//! prints build time, shape, SAH cost and ray throughput.
+//!
+//! ```text
+//! cargo run --release -p arbor-accel --example buildstats -- [--tris N] [--msh FILE] [--rays R] [--kinds a,b,...]
+//! ```
+//!
+//! `--msh` reads the Cornell `.msh` format (point count, triangle count,
+//! `vertices` then 3 numbers per point, `triangles` then 3 zero-based indices
+//! per triangle, one number per line).
+
+use std::time::Instant;
+
+use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
+use rayon::prelude::*;
+
+/// A bumpy torus of about `tris` triangles.
+fn torus(tris: usize) -> TriangleMesh {
+    let m = ((tris / 2) as f64 / 3.0).sqrt().max(3.0) as usize;
+    let (nu, nv) = (3 * m, m);
+    let mut vertices = Vec::with_capacity(nu * nv);
+    for j in 0..nv {
+        for i in 0..nu {
+            let u = i as f32 / nu as f32 * std::f32::consts::TAU;
+            let v = j as f32 / nv as f32 * std::f32::consts::TAU;
+            let r = 0.3 + 0.02 * (13.0 * u).sin() * (7.0 * v).cos();
+            vertices.push(Vec3::new(
+                (1.0 + r * v.cos()) * u.cos(),
+                (1.0 + r * v.cos()) * u.sin(),
+                r * v.sin(),
+            ));
+        }
+    }
+    let mut triangles = Vec::with_capacity(2 * nu * nv);
+    for j in 0..nv {
+        for i in 0..nu {
+            let idx = |i: usize, j: usize| ((j % nv) * nu + (i % nu)) as u32;
+            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1));
+            triangles.push([a, b, c]);
+            triangles.push([b, d, c]);
+        }
+    }
+    TriangleMesh::new(vertices, triangles)
+}
+
+/// Reads a Cornell `.msh` file.
+fn read_msh(path: &str) -> TriangleMesh {
+    let text = std::fs::read_to_string(path).expect("read .msh");
+    let mut tok = text.split_whitespace();
+    let np: usize = tok.next().unwrap().parse().unwrap();
+    let nt: usize = tok.next().unwrap().parse().unwrap();
+    assert_eq!(tok.next(), Some("vertices"));
+    let mut num = || tok.next().unwrap().parse::<f32>().unwrap();
+    let vertices = (0..np).map(|_| Vec3::new(num(), num(), num())).collect();
+    assert_eq!(tok.next(), Some("triangles"));
+    let mut idx = || tok.next().unwrap().parse::<u32>().unwrap();
+    let triangles = (0..nt).map(|_| [idx(), idx(), idx()]).collect();
+    TriangleMesh::new(vertices, triangles)
+}
+
+/// Deterministic rays from a sphere around the mesh towards points inside it.
+fn rays(mesh: &TriangleMesh, n: usize) -> Vec<Ray> {
+    let b = arbor_accel::Aabb::from_points(mesh.vertices.iter().copied());
+    let (c, r) = (b.center(), b.extent().length());
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut rnd = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    (0..n)
+        .map(|_| {
+            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::X);
+            let o = c + d * r;
+            let t = b.min + b.extent() * Vec3::new(rnd(), rnd(), rnd());
+            Ray::new(o, t - o, 0.0, f32::INFINITY)
+        })
+        .collect()
+}
+
+/// CPU seconds (user + system) this process has used, from `/proc/self/stat`;
+/// 0 where that is unavailable. On a shared machine wall time includes
+/// waiting for a core, CPU time does not.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    // Fields after the parenthesised command name; utime and stime are the
+    // 14th and 15th fields overall, in clock ticks (100 per second on Linux).
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+    (tick(11) + tick(12)) / 100.0
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |name: &str| {
+        args.iter()
+            .position(|a| a == name)
+            .and_then(|i| args.get(i + 1).cloned())
+    };
+    let mesh = match arg("--msh") {
+        Some(p) => read_msh(&p),
+        None => torus(arg("--tris").map_or(100_000, |s| s.parse().unwrap())),
+    };
+    let nrays: usize = arg("--rays").map_or(200_000, |s| s.parse().unwrap());
+    let kinds: Vec<AccelKind> = match arg("--kinds") {
+        Some(k) => k.split(',').map(|s| s.parse().unwrap()).collect(),
+        None => AccelKind::ALL
+            .iter()
+            .copied()
+            .filter(|k| *k != AccelKind::List)
+            .collect(),
+    };
+    let rays = rays(&mesh, nrays);
+    println!(
+        "{} triangles, {} rays, {} threads",
+        mesh.triangles.len(),
+        rays.len(),
+        rayon::current_num_threads()
+    );
+    println!(
+        "| structure | build ms (wall) | build ms (CPU) | Mtris/s (wall) | nodes | leaves | depth | MB | SAH cost | Mrays/s (1 thread) | Mrays/s (all) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for kind in kinds {
+        let (t, cpu) = (Instant::now(), cpu_seconds());
+        let accel = Accel::build(kind, &mesh);
+        let build = t.elapsed().as_secs_f64();
+        let build_cpu = cpu_seconds() - cpu;
+        let s = accel.stats();
+        let trace = |r: &Ray| {
+            let mut best = f32::INFINITY;
+            accel.closest(r, &mut NoCounters, |p, ray| {
+                let h = mesh.intersect(p as usize, ray)?;
+                best = h.t;
+                Some(h.t)
+            });
+            best
+        };
+        let t = Instant::now();
+        let hits1: usize = rays.iter().map(trace).filter(|t| t.is_finite()).count();
+        let single = rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6;
+        let t = Instant::now();
+        let hits2: usize = rays.par_iter().map(trace).filter(|t| t.is_finite()).count();
+        let all = rays.len() as f64 / t.elapsed().as_secs_f64() / 1e6;
+        assert_eq!(hits1, hits2);
+        println!(
+            "| {} | {:.0} | {:.0} | {:.2} | {} | {} | {} | {:.1} | {} | {:.2} | {:.2} |",
+            kind,
+            build * 1e3,
+            build_cpu * 1e3,
+            mesh.triangles.len() as f64 / build / 1e6,
+            s.nodes,
+            s.leaves,
+            s.max_depth,
+            s.memory_bytes as f64 / 1e6,
+            s.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
+            single,
+            all
+        );
+    }
+}
