@@ -18,6 +18,13 @@ pub struct CompareArgs {
     /// Write the per-channel difference, amplified 16 times, to this PNG.
     #[arg(long)]
     pub diff: Option<PathBuf>,
+    /// Fail (exit status 1) when the PSNR is below this many dB.
+    #[arg(long, value_name = "DB")]
+    pub min_psnr: Option<f64>,
+    /// Fail (exit status 1) when fewer than this fraction of channel values
+    /// are within 2/255.
+    #[arg(long, value_name = "FRACTION")]
+    pub min_within2: Option<f64>,
 }
 
 fn read_rgb8(path: &Path) -> anyhow::Result<image::RgbImage> {
@@ -52,6 +59,10 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.diff {
         let d = difference_image(a.as_raw(), b.as_raw(), 16);
         write_png(path, a.width(), a.height(), &d)?;
+    }
+    if args.min_psnr.is_some_and(|m| c.psnr < m) || args.min_within2.is_some_and(|m| c.within_2 < m)
+    {
+        anyhow::bail!("below the required agreement");
     }
     Ok(())
 }
