@@ -1,7 +1,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::{Bvh, BvhBuilder, BvhParams, Counters, List, Primitives, Ray};
+use crate::{Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, List, Primitives, Ray};
 
 /// What every acceleration structure answers: the candidates a ray may hit.
 ///
@@ -61,6 +61,8 @@ pub enum AccelKind {
     BvhSweep,
     /// BVH by bottom-up PLOC clustering (`bvh-cluster`).
     BvhCluster,
+    /// Uniform grid (`grid`).
+    Grid,
 }
 
 impl AccelKind {
@@ -72,6 +74,7 @@ impl AccelKind {
         AccelKind::BvhSah,
         AccelKind::BvhSweep,
         AccelKind::BvhCluster,
+        AccelKind::Grid,
     ];
 
     /// The name users type.
@@ -83,6 +86,7 @@ impl AccelKind {
             AccelKind::BvhSah => "bvh-sah",
             AccelKind::BvhSweep => "bvh-sweep",
             AccelKind::BvhCluster => "bvh-cluster",
+            AccelKind::Grid => "grid",
         }
     }
 
@@ -144,6 +148,8 @@ pub enum Accel {
     List(List),
     /// Any of the BVHs.
     Bvh(Bvh),
+    /// The uniform grid.
+    Grid(Grid),
 }
 
 /// Parameters of every structure, for [`Accel::build_with`].
@@ -151,6 +157,8 @@ pub enum Accel {
 pub struct AccelParams {
     /// BVH builders.
     pub bvh: BvhParams,
+    /// The uniform grid.
+    pub grid: GridParams,
 }
 
 impl Accel {
@@ -170,6 +178,7 @@ impl Accel {
         }
         match kind {
             AccelKind::List => Accel::List(List::build(prims)),
+            AccelKind::Grid => Accel::Grid(Grid::build(prims, &params.grid)),
             _ => unreachable!("every other kind is a BVH"),
         }
     }
@@ -184,6 +193,7 @@ impl Accelerator for Accel {
         match self {
             Accel::List(a) => a.closest(ray, counters, hit),
             Accel::Bvh(a) => a.closest(ray, counters, hit),
+            Accel::Grid(a) => a.closest(ray, counters, hit),
         }
     }
 
@@ -195,6 +205,7 @@ impl Accelerator for Accel {
         match self {
             Accel::List(a) => a.occluded(ray, counters, hit),
             Accel::Bvh(a) => a.occluded(ray, counters, hit),
+            Accel::Grid(a) => a.occluded(ray, counters, hit),
         }
     }
 
@@ -202,6 +213,7 @@ impl Accelerator for Accel {
         match self {
             Accel::List(a) => a.stats(),
             Accel::Bvh(a) => a.stats(),
+            Accel::Grid(a) => a.stats(),
         }
     }
 }

@@ -1,0 +1,437 @@
+//! The uniform grid: space cut into equal cells, each listing the primitives
+//! that overlap it, walked cell by cell along the ray (Amanatides and Woo,
+//! "A Fast Voxel Traversal Algorithm for Ray Tracing", 1987).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::util::{prepare, widen_up, Mailbox};
+use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
+
+/// Grid build parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridParams {
+    /// Cells per primitive: the grid gets about `lambda * N` cells, shaped to
+    /// the scene bounds so cells are close to cubes. Default 4; 2-8 trade
+    /// memory and build time against tests per ray.
+    pub lambda: f32,
+    /// Upper bound on the number of cells. Default 2^24.
+    pub max_cells: usize,
+    /// Upper bound on the resolution along one axis. Default 1024.
+    pub max_resolution: u32,
+}
+
+impl Default for GridParams {
+    fn default() -> Self {
+        GridParams {
+            lambda: 4.0,
+            max_cells: 1 << 24,
+            max_resolution: 1024,
+        }
+    }
+}
+
+/// Cells are widened by this fraction of the largest cell extent when
+/// deciding which primitives they hold. Traversal computes the cell crossing
+/// distances in `f32`; a crossing is off by at most about `3 ulp` of the
+/// distance from the ray origin to the crossed plane, which this margin covers
+/// for origins within about 20 000 cell widths of the grid, so rounding can
+/// never walk the ray past a cell that holds a hit.
+const DILATION: f32 = 1.0 / 256.0;
+
+/// A uniform grid over any [`Primitives`], with cells in compressed sparse
+/// row form: cell `c` holds `prims[start[c]..start[c + 1]]`.
+#[derive(Clone, Debug, Default)]
+pub struct Grid {
+    bounds: Aabb,
+    res: [u32; 3],
+    /// Cell boundaries per axis (`res + 1` values, ending exactly at the
+    /// bounds), so neighbouring cells share their boundary bit for bit.
+    planes: [Vec<f32>; 3],
+    inv_cell: Vec3,
+    start: Vec<u32>,
+    prims: Vec<u32>,
+    unbounded: Vec<u32>,
+}
+
+impl Grid {
+    /// Builds a grid over `prims`. Primitives with empty boxes are left out;
+    /// those with NaN or infinite boxes are offered to every ray.
+    pub fn build<P: Primitives + ?Sized>(prims: &P, params: &GridParams) -> Self {
+        let prep = prepare(prims);
+        let mut grid = Grid {
+            unbounded: prep.unbounded,
+            ..Grid::default()
+        };
+        if prep.refs.is_empty() {
+            return grid;
+        }
+        let b = prep.bounds;
+        let ext = b.extent();
+        let res = resolution(ext, prep.refs.len(), params);
+        let planes: [Vec<f32>; 3] = std::array::from_fn(|a| {
+            let r = res[a] as usize;
+            let mut p: Vec<f32> = (0..r)
+                .map(|i| b.min[a] + ext[a] * (i as f32 / r as f32))
+                .collect();
+            p.push(b.max[a]);
+            p
+        });
+        let inv_cell = Vec3::from_array(std::array::from_fn(|a| {
+            if ext[a] > 0.0 {
+                res[a] as f32 / ext[a]
+            } else {
+                0.0
+            }
+        }));
+        let cell_ext = Vec3::from_array(std::array::from_fn(|a| ext[a] / res[a] as f32));
+        let dil = cell_ext.max_element() * DILATION;
+        let (rx, ry) = (res[0] as usize, res[1] as usize);
+        let cells_of = |&(id, pb): &(u32, Aabb)| -> Vec<u32> {
+            let mut lo = [0usize; 3];
+            let mut hi = [0usize; 3];
+            for a in 0..3 {
+                let p = &planes[a];
+                let r = p.len() - 1;
+                let guess = |x: f32| (((x - b.min[a]) * inv_cell[a]).max(0.0) as usize).min(r - 1);
+                // Cell i (widened) overlaps [pb.min, pb.max] iff
+                // p[i] - dil <= pb.max and p[i + 1] + dil >= pb.min.
+                let mut l = guess(pb.min[a] - dil);
+                while l > 0 && p[l] + dil >= pb.min[a] {
+                    l -= 1;
+                }
+                while l + 1 < r && p[l + 1] + dil < pb.min[a] {
+                    l += 1;
+                }
+                let mut h = guess(pb.max[a] + dil).max(l);
+                while h + 1 < r && p[h + 1] - dil <= pb.max[a] {
+                    h += 1;
+                }
+                while h > l && p[h] - dil > pb.max[a] {
+                    h -= 1;
+                }
+                lo[a] = l;
+                hi[a] = h;
+            }
+            let single = lo == hi;
+            let mut out = Vec::new();
+            for z in lo[2]..=hi[2] {
+                for y in lo[1]..=hi[1] {
+                    for x in lo[0]..=hi[0] {
+                        let keep = single || {
+                            let cell = Aabb::new(
+                                Vec3::new(planes[0][x], planes[1][y], planes[2][z]) - dil,
+                                Vec3::new(planes[0][x + 1], planes[1][y + 1], planes[2][z + 1])
+                                    + dil,
+                            );
+                            prims.clipped_bounds(id as usize, &cell).is_some()
+                        };
+                        if keep {
+                            out.push(((z * ry + y) * rx + x) as u32);
+                        }
+                    }
+                }
+            }
+            out
+        };
+        let lists: Vec<Vec<u32>> = prep.refs.par_iter().map(cells_of).collect();
+        // Counting sort into CSR, in primitive order so the layout does not
+        // depend on scheduling.
+        let ncells = rx * ry * res[2] as usize;
+        let mut start = vec![0u32; ncells + 1];
+        for l in &lists {
+            for &c in l {
+                start[c as usize + 1] += 1;
+            }
+        }
+        for i in 0..ncells {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut cell_prims = vec![0u32; start[ncells] as usize];
+        for (l, &(id, _)) in lists.iter().zip(&prep.refs) {
+            for &c in l {
+                cell_prims[fill[c as usize] as usize] = id;
+                fill[c as usize] += 1;
+            }
+        }
+        grid.bounds = b;
+        grid.res = res;
+        grid.planes = planes;
+        grid.inv_cell = inv_cell;
+        grid.start = start;
+        grid.prims = cell_prims;
+        grid
+    }
+
+    /// Cells along x, y and z.
+    pub fn resolution(&self) -> [u32; 3] {
+        self.res
+    }
+
+    /// Walks the cells the ray passes, front to back, calling `visit` with
+    /// each cell's primitives and the distance at which the ray leaves the
+    /// cell, until `visit` returns `true` or the ray leaves the grid.
+    #[inline(always)]
+    fn walk<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        mut visit: impl FnMut(&[u32], f32, &mut C) -> bool,
+    ) {
+        if self.start.is_empty() {
+            return;
+        }
+        let inv = ray.inv_dir();
+        let wide = Ray {
+            tmax: widen_up(ray.tmax),
+            ..*ray
+        };
+        let Some((t0, _)) = self.bounds.intersect(&wide, inv) else {
+            return;
+        };
+        let p = ray.at(t0);
+        let mut cell = [0usize; 3];
+        let mut step = [0isize; 3];
+        let mut next = [f32::INFINITY; 3];
+        for a in 0..3 {
+            let r = self.res[a] as usize;
+            cell[a] =
+                (((p[a] - self.bounds.min[a]) * self.inv_cell[a]).max(0.0) as usize).min(r - 1);
+            if !inv[a].is_finite() {
+                // Parallel to this axis (or too slow along it to matter).
+                continue;
+            }
+            if ray.dir[a] > 0.0 {
+                step[a] = 1;
+                next[a] = (self.planes[a][cell[a] + 1] - ray.origin[a]) * inv[a];
+            } else if ray.dir[a] < 0.0 {
+                step[a] = -1;
+                next[a] = (self.planes[a][cell[a]] - ray.origin[a]) * inv[a];
+            }
+        }
+        let (rx, ry) = (self.res[0] as usize, self.res[1] as usize);
+        loop {
+            counters.node();
+            let c = (cell[2] * ry + cell[1]) * rx + cell[0];
+            let exit = next[0].min(next[1]).min(next[2]);
+            let slice = &self.prims[self.start[c] as usize..self.start[c + 1] as usize];
+            if visit(slice, exit, counters) {
+                return;
+            }
+            let a = if next[0] <= next[1] && next[0] <= next[2] {
+                0
+            } else if next[1] <= next[2] {
+                1
+            } else {
+                2
+            };
+            if step[a] == 0 {
+                // Every remaining crossing is infinitely far: the ray never
+                // leaves this cell.
+                return;
+            }
+            let n = cell[a] as isize + step[a];
+            if n < 0 || n >= self.res[a] as isize {
+                return;
+            }
+            cell[a] = n as usize;
+            let plane = if step[a] > 0 { cell[a] + 1 } else { cell[a] };
+            next[a] = (self.planes[a][plane] - ray.origin[a]) * inv[a];
+        }
+    }
+}
+
+/// Cells per axis: about `lambda * n` in total, proportioned like the
+/// bounds. Flat axes (thinner than 1e-4 of the largest extent) get one cell.
+fn resolution(ext: Vec3, n: usize, params: &GridParams) -> [u32; 3] {
+    let target = (params.lambda.max(0.01) as f64 * n as f64).min(params.max_cells as f64);
+    let big = ext.max_element() as f64;
+    let thick: Vec<usize> = (0..3)
+        .filter(|&a| big > 0.0 && ext[a] as f64 > big * 1e-4)
+        .collect();
+    let mut res = [1u32; 3];
+    if thick.is_empty() {
+        return res;
+    }
+    let measure: f64 = thick.iter().map(|&a| ext[a] as f64 / big).product();
+    let k = (target / measure).powf(1.0 / thick.len() as f64);
+    for &a in &thick {
+        let r = (ext[a] as f64 / big * k).round();
+        res[a] = r.clamp(1.0, params.max_resolution.max(1) as f64) as u32;
+    }
+    while res.iter().map(|&r| r as usize).product::<usize>() > params.max_cells.max(1) {
+        for r in &mut res {
+            *r = (*r / 2).max(1);
+        }
+    }
+    res
+}
+
+impl Accelerator for Grid {
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        for &p in &self.unbounded {
+            counters.test();
+            if let Some(t) = hit(p, &ray) {
+                ray.tmax = ray.tmax.min(t);
+            }
+        }
+        let walk_ray = ray;
+        let mut mailbox = Mailbox::new();
+        self.walk(&walk_ray, counters, |prims, exit, counters| {
+            for &p in prims {
+                if mailbox.insert(p) {
+                    counters.test();
+                    if let Some(t) = hit(p, &ray) {
+                        ray.tmax = ray.tmax.min(t);
+                    }
+                }
+            }
+            // Every hit closer than the exit lies in a cell already visited
+            // (up to the cell widening), so the nearest one is known.
+            ray.tmax <= exit
+        });
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        for &p in &self.unbounded {
+            counters.test();
+            if hit(p, ray) {
+                return true;
+            }
+        }
+        let mut found = false;
+        let mut mailbox = Mailbox::new();
+        self.walk(ray, counters, |prims, exit, counters| {
+            for &p in prims {
+                if mailbox.insert(p) {
+                    counters.test();
+                    if hit(p, ray) {
+                        found = true;
+                        return true;
+                    }
+                }
+            }
+            ray.tmax <= exit
+        });
+        found
+    }
+
+    fn stats(&self) -> AccelStats {
+        let cells = self.start.len().saturating_sub(1);
+        AccelStats {
+            nodes: cells,
+            leaves: self.start.windows(2).filter(|w| w[1] > w[0]).count(),
+            max_depth: 0,
+            memory_bytes: std::mem::size_of::<Self>()
+                + (self.start.len() + self.prims.len() + self.unbounded.len()) * 4
+                + self.planes.iter().map(|p| p.len() * 4).sum::<usize>(),
+            sah_cost: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{List, NoCounters, RayCounts, TriangleMesh};
+
+    fn soup() -> TriangleMesh {
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        for i in 0..300u32 {
+            let f = i as f32;
+            let c = Vec3::new(
+                (f * 0.618).fract(),
+                (f * 0.414).fract(),
+                (f * 0.732).fract(),
+            ) * 10.0;
+            v.push(c);
+            v.push(c + Vec3::new((f * 1.3).sin(), 0.5, (f * 0.7).cos()));
+            v.push(c + Vec3::new(0.3, (f * 2.1).cos(), 0.8));
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        TriangleMesh::new(v, t)
+    }
+
+    #[test]
+    fn grid_matches_list_and_tests_each_prim_once() {
+        let m = soup();
+        let g = Grid::build(&m, &GridParams::default());
+        let cells: u32 = g.resolution().iter().product();
+        assert!((600..=2400).contains(&cells), "{:?}", g.resolution());
+        let list = List::build(&m);
+        for k in 0..300 {
+            let f = k as f32;
+            let o = Vec3::new(-2.0, (f * 0.37).fract() * 12.0, (f * 0.91).fract() * 12.0);
+            let d = Vec3::new(1.0, (f * 0.7).sin() * 0.5, (f * 0.3).cos() * 0.5);
+            let r = Ray::new(o, d, 0.0, f32::INFINITY);
+            let mut best = [f32::INFINITY; 2];
+            let mut seen = Vec::new();
+            g.closest(&r, &mut NoCounters, |p, ray| {
+                seen.push(p);
+                let t = m.intersect(p as usize, ray)?.t;
+                best[0] = t;
+                Some(t)
+            });
+            list.closest(&r, &mut NoCounters, |p, ray| {
+                let t = m.intersect(p as usize, ray)?.t;
+                best[1] = t;
+                Some(t)
+            });
+            assert_eq!(best[0], best[1], "ray {k}");
+            let n = seen.len();
+            seen.sort();
+            seen.dedup();
+            assert_eq!(seen.len(), n, "a primitive was tested twice");
+            let test = |p: u32, ray: &Ray| m.intersect(p as usize, ray).is_some();
+            assert_eq!(
+                g.occluded(&r, &mut NoCounters, test),
+                list.occluded(&r, &mut NoCounters, test)
+            );
+        }
+        let mut c = RayCounts::default();
+        let r = Ray::new(Vec3::new(-20.0, 5.0, 5.0), Vec3::X, 0.0, 1.0);
+        g.closest(&r, &mut c, |_, _| None);
+        assert_eq!(c.nodes, 0);
+    }
+
+    #[test]
+    fn empty_flat_and_zero_direction() {
+        let none: Vec<Aabb> = Vec::new();
+        let g = Grid::build(&none, &GridParams::default());
+        let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0);
+        assert!(!g.occluded(&r, &mut NoCounters, |_, _| true));
+        let flat: Vec<Aabb> = (0..50)
+            .map(|i| {
+                let x = i as f32 * 0.1;
+                Aabb::new(Vec3::new(x, 0.0, 0.0), Vec3::new(x + 0.05, 1.0, 0.0))
+            })
+            .collect();
+        let g = Grid::build(&flat, &GridParams::default());
+        assert_eq!(g.resolution()[2], 1);
+        let r = Ray::new(Vec3::new(1.01, 0.5, 0.0), Vec3::ZERO, 0.0, 1.0);
+        let mut seen = Vec::new();
+        g.closest(&r, &mut NoCounters, |p, _| {
+            seen.push(p);
+            None
+        });
+        assert!(seen.contains(&10));
+        let r = Ray::new(Vec3::new(-1.0, 0.5, 0.0), Vec3::X, 0.0, f32::INFINITY);
+        let mut n = 0;
+        g.closest(&r, &mut NoCounters, |_, _| {
+            n += 1;
+            None
+        });
+        assert_eq!(n, 50);
+    }
+}
