@@ -1,0 +1,388 @@
+//! `arbor render` and `arbor compare` through the real binary: outputs,
+//! determinism, and every bad-input path (exit status 2, one located error
+//! line, no output file, never a panic).
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn arbor(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run arbor")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A small valid 2010 scene with a box, a sphere and a mesh; `body` is
+/// spliced into the scene element.
+fn scene_2010(body: &str) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<scene>
+  <camera>
+    <viewPoint>0 0 5</viewPoint>
+    <viewDir>0 0 -1</viewDir>
+    <projDistance>2</projDistance>
+  </camera>
+  <image>16 12</image>
+  <shader name="red" type="Lambertian"><diffuseColor>1 0 0</diffuseColor></shader>
+  <surface type="Sphere"><shader ref="red"/><radius>0.5</radius></surface>
+  <light><position>3 4 5</position></light>
+{body}
+</scene>
+"#
+    )
+}
+
+const TRIANGLE_MSH: &str = "3\r\n1\r\nvertices\r\n0\r\n0\r\n0\r\n1\r\n0\r\n0\r\n0\r\n1\r\n0\r\ntriangles\r\n0\r\n1\r\n2\r\n";
+
+struct Case {
+    dir: tempfile::TempDir,
+}
+
+impl Case {
+    fn new(xml: &str) -> Case {
+        let dir = tempfile::tempdir().unwrap();
+        fs::write(dir.path().join("s.xml"), xml).unwrap();
+        fs::write(dir.path().join("tri.msh"), TRIANGLE_MSH).unwrap();
+        Case { dir }
+    }
+
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    fn render(&self, extra: &[&str]) -> Output {
+        let mut args = vec!["render", "s.xml", "-q"];
+        args.extend_from_slice(extra);
+        arbor(self.path(), &args)
+    }
+
+    /// The render fails with exit status 2, a single error line that starts
+    /// with `location` and contains `needle`, and writes no image.
+    fn expect_error(&self, location: &str, needle: &str) {
+        let out = self.render(&[]);
+        let err = stderr(&out);
+        assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+        assert!(
+            err.starts_with(location),
+            "expected {location:?} at the start of: {err}"
+        );
+        assert!(err.contains(needle), "expected {needle:?} in: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        let left: Vec<PathBuf> = fs::read_dir(self.path())
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "png" || e == "tmp"))
+            .collect();
+        assert!(left.is_empty(), "no output expected, found {left:?}");
+    }
+}
+
+#[test]
+fn renders_scene_to_stem_png_in_current_directory() {
+    let case = Case::new(&scene_2010(""));
+    let out = case.render(&[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let img = image::open(case.path().join("s.png")).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (16, 12));
+    // The sphere is lit red in the middle, the corners are black.
+    assert!(img.get_pixel(8, 6).0[0] > 100);
+    assert_eq!(img.get_pixel(0, 0).0, [0, 0, 0]);
+}
+
+#[test]
+fn default_scene_renders_and_says_where() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = arbor(dir.path(), &["render"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains("arbor.png"), "{}", stderr(&out));
+    let img = image::open(dir.path().join("arbor.png")).unwrap().to_rgb8();
+    assert!(img.width() >= 320);
+    // Not a blank picture: many distinct colours.
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort();
+    colours.dedup();
+    assert!(colours.len() > 1000, "{} colours", colours.len());
+}
+
+#[test]
+fn exr_output_and_same_bytes_for_any_thread_count() {
+    let case = Case::new(&scene_2010(
+        r#"<surface type="Mesh"><data>tri.msh</data></surface>"#,
+    ));
+    for (threads, name) in [("1", "one.png"), ("2", "two.png"), ("3", "three.png")] {
+        let out = case.render(&["--threads", threads, "-o", name]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let one = fs::read(case.path().join("one.png")).unwrap();
+    assert_eq!(one, fs::read(case.path().join("two.png")).unwrap());
+    assert_eq!(one, fs::read(case.path().join("three.png")).unwrap());
+    let out = case.render(&["-o", "linear.EXR"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let bytes = fs::read(case.path().join("linear.EXR")).unwrap();
+    assert_eq!(&bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "OpenEXR magic");
+}
+
+#[test]
+fn every_accelerator_gives_the_same_image() {
+    let case = Case::new(&scene_2010(
+        r#"<surface type="Mesh"><data>tri.msh</data></surface>
+           <surface type="Box"><minPt>-2 -2 -2</minPt><maxPt>2 -1.5 2</maxPt></surface>"#,
+    ));
+    let reference = {
+        assert!(case
+            .render(&["--accel", "list", "-o", "list.png"])
+            .status
+            .success());
+        fs::read(case.path().join("list.png")).unwrap()
+    };
+    for kind in arbor_accel::AccelKind::ALL {
+        let name = format!("{kind}.png");
+        let out = case.render(&["--accel", kind.name(), "-o", &name]);
+        assert!(out.status.success(), "{kind}: {}", stderr(&out));
+        assert_eq!(
+            fs::read(case.path().join(&name)).unwrap(),
+            reference,
+            "{kind}"
+        );
+    }
+}
+
+#[test]
+fn unknown_attribute_is_only_a_warning() {
+    let case = Case::new(&scene_2010(r#"<surface type="Sphere" colour="blue"/>"#));
+    let out = arbor(case.path(), &["render", "s.xml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("s.xml:12:1: warning: ignoring unknown attribute 'colour'"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn unknown_element_names_parent_and_expected_children() {
+    Case::new(&scene_2010(
+        r#"<surface type="Box"><minpts>0 0 0</minpts></surface>"#,
+    ))
+    .expect_error(
+        "s.xml:12:21: ",
+        r#"unknown element <minpts> in <surface type="Box">; expected minPt, maxPt, shader"#,
+    );
+}
+
+#[test]
+fn element_names_are_case_insensitive() {
+    let case = Case::new(&scene_2010(
+        r#"<SURFACE type="Box"><MINPT>0 0 0</MINPT><maxpt>1 1 1</maxpt></SURFACE>"#,
+    ));
+    assert!(case.render(&[]).status.success());
+}
+
+#[test]
+fn number_that_does_not_parse() {
+    Case::new(&scene_2010(
+        r#"<surface type="Sphere"><radius>1.2.3</radius></surface>"#,
+    ))
+    .expect_error(
+        "s.xml:12:24: ",
+        "<radius>: expected a number, found '1.2.3'",
+    );
+}
+
+#[test]
+fn vector_with_wrong_count() {
+    Case::new(&scene_2010(
+        r#"<surface type="Sphere"><center>1 2</center></surface>"#,
+    ))
+    .expect_error("s.xml:12:24: ", "expected 3 numbers, found 2");
+}
+
+#[test]
+fn ref_to_undefined_name() {
+    Case::new(&scene_2010(
+        r#"<surface type="Sphere"><shader ref="blue"/></surface>"#,
+    ))
+    .expect_error(
+        "s.xml:12:24: ",
+        "no element named 'blue' is defined before this point",
+    );
+}
+
+#[test]
+fn ref_to_a_surface_is_instancing_and_rejected() {
+    Case::new(&scene_2010(
+        r#"<surface type="Sphere" name="ball"/>
+<surface ref="ball"/>"#,
+    ))
+    .expect_error("s.xml:13:1: ", "instancing");
+}
+
+#[test]
+fn unknown_types() {
+    Case::new(&scene_2010(r#"<surface type="Torus"/>"#)).expect_error(
+        "s.xml:12:1: ",
+        "unknown surface type 'Torus'; expected one of Sphere, Box, Mesh, Group",
+    );
+    Case::new(&scene_2010(r#"<shader type="Toon"/>"#))
+        .expect_error("s.xml:12:1: ", "unknown shader type 'Toon'");
+    Case::new(&scene_2010(r#"<light type="SpotLight"/>"#))
+        .expect_error("s.xml:12:1: ", "unknown light type 'SpotLight'");
+    Case::new(&scene_2010("").replace("<camera>", r#"<camera type="FisheyeCamera">"#))
+        .expect_error("s.xml:3:3: ", "unknown camera type 'FisheyeCamera'");
+}
+
+#[test]
+fn missing_mesh_file() {
+    Case::new(&scene_2010(
+        r#"<surface type="Mesh"><data>nothere.msh</data></surface>"#,
+    ))
+    .expect_error("s.xml:12:22: ", "mesh file");
+}
+
+#[test]
+fn mesh_index_out_of_range_names_mesh_file_and_line() {
+    let case = Case::new(&scene_2010(
+        r#"<surface type="Mesh"><data>bad.msh</data></surface>"#,
+    ));
+    fs::write(
+        case.path().join("bad.msh"),
+        TRIANGLE_MSH.replace("triangles\r\n0\r\n1\r\n2", "triangles\r\n0\r\n1\r\n7"),
+    )
+    .unwrap();
+    // The mesh file is named as the scene names it, relative to the scene.
+    case.expect_error("bad.msh:16: ", "vertex index 7 is out of range");
+}
+
+#[test]
+fn missing_and_unreadable_scene_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = arbor(dir.path(), &["render", "none.xml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).starts_with("none.xml: cannot read scene file"),
+        "{}",
+        stderr(&out)
+    );
+    let out = arbor(dir.path(), &["render", "."]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+}
+
+#[test]
+fn truncated_xml() {
+    let xml = scene_2010("");
+    Case::new(&xml[..xml.len() / 2]).expect_error("s.xml:", "malformed XML");
+}
+
+#[test]
+fn missing_camera_or_image() {
+    let xml = scene_2010("");
+    let start = xml.find("<camera>").unwrap();
+    let end = xml.find("</camera>").unwrap() + "</camera>".len();
+    Case::new(&format!("{}{}", &xml[..start], &xml[end..]))
+        .expect_error("s.xml:2:1: ", "the scene has no <camera>");
+    Case::new(&xml.replace("<image>16 12</image>", ""))
+        .expect_error("s.xml:2:1: ", "the scene has no <image>");
+}
+
+#[test]
+fn out_of_range_values() {
+    Case::new(&scene_2010("").replace("16 12", "200000 200000"))
+        .expect_error("s.xml:8:3: ", "out of range");
+    Case::new(&scene_2010("").replace("16 12", "-4 12"))
+        .expect_error("s.xml:8:3: ", "out of range");
+    Case::new(&scene_2010("<samples>4000000000</samples>"))
+        .expect_error("s.xml:12:1: ", "<samples> must be between");
+    Case::new(&scene_2010(
+        r#"<surface type="Sphere"><radius>-1</radius></surface>"#,
+    ))
+    .expect_error("s.xml:12:24: ", "must be positive");
+}
+
+#[test]
+fn variant_specific_elements() {
+    Case::new(&scene_2010("<exposure>2</exposure>")).expect_error("s.xml:12:1: ", "2015 variant");
+    Case::new(&scene_2010(r#"<surface type="Cylinder"/>"#))
+        .expect_error("s.xml:12:1: ", "unknown surface type 'Cylinder'");
+}
+
+#[test]
+fn glazed_needs_index_and_substrate() {
+    Case::new(&scene_2010(
+        r#"<shader type="Glazed"><refractiveIndex>1.5</refractiveIndex></shader>"#,
+    ))
+    .expect_error("s.xml:12:1: ", "needs a <substrate>");
+    Case::new(&scene_2010(
+        r#"<shader type="Glazed"><substrate type="Lambertian"/><fresnel>fast</fresnel></shader>"#,
+    ))
+    .expect_error("s.xml:12:53: ", "<fresnel> must be 'schlick' or 'exact'");
+}
+
+#[test]
+fn unknown_output_format() {
+    let case = Case::new(&scene_2010(""));
+    let out = case.render(&["-o", "out.jpg"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("unknown image format"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn unknown_accelerator_is_a_usage_error() {
+    let case = Case::new(&scene_2010(""));
+    let out = case.render(&["--accel", "octree"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("unknown accelerator 'octree'"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+#[test]
+fn compare_reports_and_enforces_thresholds() {
+    let case = Case::new(&scene_2010(""));
+    assert!(case.render(&["-o", "a.png"]).status.success());
+    let out = arbor(
+        case.path(),
+        &[
+            "compare",
+            "a.png",
+            "a.png",
+            "--diff",
+            "d.png",
+            "--min-psnr",
+            "40",
+        ],
+    );
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("psnr inf dB"));
+    assert!(case.path().join("d.png").exists());
+    // A different picture fails the threshold.
+    let other = Case::new(&scene_2010("").replace("1 0 0", "0 1 0"));
+    assert!(other.render(&["-o", "b.png"]).status.success());
+    fs::copy(other.path().join("b.png"), case.path().join("b.png")).unwrap();
+    let out = arbor(
+        case.path(),
+        &["compare", "a.png", "b.png", "--min-psnr", "40"],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    // Different sizes and unreadable files are input errors.
+    fs::write(case.path().join("junk.png"), b"not a png").unwrap();
+    assert_eq!(
+        arbor(case.path(), &["compare", "a.png", "junk.png"])
+            .status
+            .code(),
+        Some(2)
+    );
+}
