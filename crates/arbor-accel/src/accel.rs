@@ -1,7 +1,9 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::{Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, List, Primitives, Ray};
+use crate::{
+    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, List, Primitives, Ray,
+};
 
 /// What every acceleration structure answers: the candidates a ray may hit.
 ///
@@ -63,6 +65,8 @@ pub enum AccelKind {
     BvhCluster,
     /// Uniform grid (`grid`).
     Grid,
+    /// SAH k-d tree (`kdtree`).
+    KdTree,
 }
 
 impl AccelKind {
@@ -75,6 +79,7 @@ impl AccelKind {
         AccelKind::BvhSweep,
         AccelKind::BvhCluster,
         AccelKind::Grid,
+        AccelKind::KdTree,
     ];
 
     /// The name users type.
@@ -87,6 +92,7 @@ impl AccelKind {
             AccelKind::BvhSweep => "bvh-sweep",
             AccelKind::BvhCluster => "bvh-cluster",
             AccelKind::Grid => "grid",
+            AccelKind::KdTree => "kdtree",
         }
     }
 
@@ -150,6 +156,8 @@ pub enum Accel {
     Bvh(Bvh),
     /// The uniform grid.
     Grid(Grid),
+    /// The k-d tree.
+    KdTree(KdTree),
 }
 
 /// Parameters of every structure, for [`Accel::build_with`].
@@ -159,6 +167,8 @@ pub struct AccelParams {
     pub bvh: BvhParams,
     /// The uniform grid.
     pub grid: GridParams,
+    /// The k-d tree.
+    pub kdtree: KdParams,
 }
 
 impl Accel {
@@ -179,6 +189,7 @@ impl Accel {
         match kind {
             AccelKind::List => Accel::List(List::build(prims)),
             AccelKind::Grid => Accel::Grid(Grid::build(prims, &params.grid)),
+            AccelKind::KdTree => Accel::KdTree(KdTree::build(prims, &params.kdtree)),
             _ => unreachable!("every other kind is a BVH"),
         }
     }
@@ -194,6 +205,7 @@ impl Accelerator for Accel {
             Accel::List(a) => a.closest(ray, counters, hit),
             Accel::Bvh(a) => a.closest(ray, counters, hit),
             Accel::Grid(a) => a.closest(ray, counters, hit),
+            Accel::KdTree(a) => a.closest(ray, counters, hit),
         }
     }
 
@@ -206,6 +218,7 @@ impl Accelerator for Accel {
             Accel::List(a) => a.occluded(ray, counters, hit),
             Accel::Bvh(a) => a.occluded(ray, counters, hit),
             Accel::Grid(a) => a.occluded(ray, counters, hit),
+            Accel::KdTree(a) => a.occluded(ray, counters, hit),
         }
     }
 
@@ -214,6 +227,7 @@ impl Accelerator for Accel {
             Accel::List(a) => a.stats(),
             Accel::Bvh(a) => a.stats(),
             Accel::Grid(a) => a.stats(),
+            Accel::KdTree(a) => a.stats(),
         }
     }
 }

@@ -18,6 +18,7 @@ mod accel;
 mod bvh;
 mod counters;
 mod grid;
+mod kdtree;
 mod list;
 mod obb;
 mod primitives;
@@ -31,6 +32,7 @@ pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownA
 pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
+pub use kdtree::{KdParams, KdTree};
 pub use list::List;
 pub use obb::Obb;
 pub use primitives::Primitives;
