@@ -519,26 +519,27 @@ impl<'a, 'input> Loader<'a, 'input> {
                 other => Err(self.wrong_kind(node, &other, "light")),
             };
         }
-        let directional =
-            match (self.variant, node.attribute("type")) {
-                (_, None) => false,
-                (Variant::Cornell2015, Some("PointLight")) => false,
-                (Variant::Cornell2015, Some("DirectionalLight")) => true,
-                (Variant::Cornell2015, Some(other)) => {
-                    return Err(self.error(
-                        node,
-                        format!(
-                            "unknown light type '{other}'; expected PointLight or DirectionalLight"
-                        ),
-                    ))
-                }
-                (Variant::Cornell2010, Some(other)) => return Err(self.error(
+        let directional = match (self.variant, node.attribute("type")) {
+            (_, None) => false,
+            (Variant::Cornell2015, Some("PointLight")) => false,
+            (Variant::Cornell2015, Some("DirectionalLight")) => true,
+            (Variant::Cornell2015, Some(other)) => {
+                return Err(self.error(
+                    node,
+                    format!(
+                        "unknown light type '{other}'; expected PointLight or DirectionalLight"
+                    ),
+                ))
+            }
+            (Variant::Cornell2010, Some(other)) => {
+                return Err(self.error(
                     node,
                     format!(
                         "unknown light type '{other}'; 2010 scenes use untyped <light> elements"
                     ),
-                )),
-            };
+                ))
+            }
+        };
         let mut position = DVec3::ZERO;
         let mut direction = None;
         let mut intensity = DVec3::ONE;
