@@ -374,12 +374,10 @@ impl FlatScene {
             } => cylinder::intersect(center, radius, height, o, d, tmin, tmax)
                 .map(|(t, n)| Candidate { t, aux: n }),
             Shape::Triangle { mesh, index } => {
-                let (_, [p0, p1, p2]) = self.triangle(mesh, index);
-                triangle::intersect(p0, p1, p2, o, d, tmin, tmax, is2015).map(|(t, b, g)| {
-                    Candidate {
-                        t,
-                        aux: DVec3::new(b, g, 0.0),
-                    }
+                let (_, p) = self.triangle(mesh, index);
+                triangle::intersect(p, o, d, tmin, tmax, is2015).map(|(t, b, g)| Candidate {
+                    t,
+                    aux: DVec3::new(b, g, 0.0),
                 })
             }
         }
