@@ -12,7 +12,7 @@ mod trace;
 
 /// arbor: a ray tracer built around transformations and acceleration structures.
 #[derive(Parser, Debug)]
-#[command(name = "arbor", version, about, long_about = None)]
+#[command(name = "arbor", version)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
