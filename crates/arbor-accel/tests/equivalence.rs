@@ -1,0 +1,265 @@
+//! Every structure must answer exactly what brute force answers: the same
+//! closest distance, the same primitive (unless several tie at that
+//! distance), the same occlusion verdict, and no primitive offered twice.
+
+use arbor_accel::{
+    Aabb, Accel, AccelKind, Accelerator, List, NoCounters, Primitives, Ray, TriangleMesh, Vec3,
+};
+use proptest::prelude::*;
+
+/// Coordinates mixing a continuous range, a coarse lattice (coincident
+/// vertices, axis-aligned and flat triangles, rays in face planes) and huge
+/// values.
+fn coord() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => -10.0f32..10.0,
+        3 => (-4i32..=4).prop_map(|i| i as f32),
+        1 => prop_oneof![Just(-1000.0f32), Just(1000.0f32), -1.0e5f32..1.0e5],
+    ]
+}
+
+fn point() -> impl Strategy<Value = Vec3> {
+    (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// Direction components including exact zeros of both signs.
+fn dir_component() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => -1.0f32..1.0,
+        2 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => Just(1.0f32),
+        1 => Just(-1.0f32),
+    ]
+}
+
+/// A ray description: origin, direction (or a vertex index to aim at), and
+/// an interval.
+#[derive(Clone, Debug)]
+struct RaySpec {
+    origin: Vec3,
+    dir: Vec3,
+    aim: Option<usize>,
+    tmin: f32,
+    tmax: f32,
+}
+
+fn ray_spec() -> impl Strategy<Value = RaySpec> {
+    (
+        point(),
+        (dir_component(), dir_component(), dir_component()),
+        prop::option::weighted(0.3, any::<usize>()),
+        prop_oneof![3 => Just(0.0f32), 1 => 0.0f32..2.0],
+        prop_oneof![3 => Just(f32::INFINITY), 1 => 0.0f32..30.0],
+    )
+        .prop_map(|(origin, (x, y, z), aim, tmin, tmax)| RaySpec {
+            origin,
+            dir: Vec3::new(x, y, z),
+            aim,
+            tmin,
+            tmax,
+        })
+}
+
+/// The closest hit as brute force and as `a` see it, asserting agreement.
+fn check<A: Accelerator>(
+    name: &str,
+    a: &A,
+    list: &List,
+    n: usize,
+    ray: &Ray,
+    exact: &impl Fn(u32, &Ray) -> Option<f32>,
+) -> Result<(), TestCaseError> {
+    // Brute force, with every primitive's own hit for tie detection.
+    let mut all = Vec::new();
+    let mut want: Option<(f32, u32)> = None;
+    list.closest(ray, &mut NoCounters, |p, r| {
+        let t = exact(p, r)?;
+        if closer(want, t) {
+            want = Some((t, p));
+        }
+        Some(t)
+    });
+    for p in 0..n as u32 {
+        if let Some(t) = exact(p, ray) {
+            all.push((t, p));
+        }
+    }
+    let mut got: Option<(f32, u32)> = None;
+    let mut offered = vec![false; n];
+    let mut twice = false;
+    a.closest(ray, &mut NoCounters, |p, r| {
+        twice |= std::mem::replace(&mut offered[p as usize], true);
+        let t = exact(p, r)?;
+        assert_in_interval(t, r);
+        if closer(got, t) {
+            got = Some((t, p));
+        }
+        Some(t)
+    });
+    prop_assert!(!twice, "{name}: a primitive was offered twice");
+    prop_assert_eq!(got.map(|g| g.0), want.map(|w| w.0), "{}: closest t", name);
+    if let (Some((t, p)), Some((_, q))) = (got, want) {
+        let ties = all.iter().filter(|h| h.0 == t).count();
+        prop_assert!(p == q || ties > 1, "{}: primitive {} vs {}", name, p, q);
+    }
+    let occ_a = a.occluded(ray, &mut NoCounters, |p, r| exact(p, r).is_some());
+    let occ_l = list.occluded(ray, &mut NoCounters, |p, r| exact(p, r).is_some());
+    prop_assert_eq!(occ_a, occ_l, "{}: occluded", name);
+    Ok(())
+}
+
+/// Hits handed back must respect the ray's interval (a check on the test
+/// closure itself, which all structures share).
+fn assert_in_interval(t: f32, r: &Ray) {
+    assert!(t >= r.tmin && t <= r.tmax);
+}
+
+/// Whether `t` beats the best hit so far.
+fn closer(best: Option<(f32, u32)>, t: f32) -> bool {
+    match best {
+        None => true,
+        Some((b, _)) => t < b,
+    }
+}
+
+fn make_ray(spec: &RaySpec, targets: &[Vec3]) -> Ray {
+    let dir = match spec.aim {
+        Some(i) if !targets.is_empty() => targets[i % targets.len()] - spec.origin,
+        _ => spec.dir,
+    };
+    Ray::new(spec.origin, dir, spec.tmin, spec.tmax.max(spec.tmin))
+}
+
+/// Every structure except brute force itself.
+fn structures<P: Primitives + ?Sized>(prims: &P) -> Vec<(AccelKind, Accel)> {
+    AccelKind::ALL
+        .iter()
+        .filter(|k| **k != AccelKind::List)
+        .map(|&k| (k, Accel::build(k, prims)))
+        .collect()
+}
+
+fn triangles() -> impl Strategy<Value = TriangleMesh> {
+    prop::collection::vec(
+        prop_oneof![
+            6 => (point(), point(), point()).prop_map(|(a, b, c)| [a, b, c]),
+            // Small triangles near a point, so structures get real depth.
+            6 => (point(), point(), point()).prop_map(|(a, b, c)| [a, a + b * 0.1, a + c * 0.1]),
+            // Degenerate: a repeated vertex or collinear points.
+            1 => (point(), point()).prop_map(|(a, b)| [a, b, a]),
+            1 => (point(), point()).prop_map(|(a, b)| [a, b, a * 0.5 + b * 0.5]),
+        ],
+        0..48,
+    )
+    .prop_map(|tris| {
+        let vertices: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        let triangles = (0..tris.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        TriangleMesh::new(vertices, triangles)
+    })
+}
+
+/// A sphere inscribed in each box, tested in `f64` and rounded up to `f32`
+/// as a careful caller might.
+fn sphere_hit(b: &Aabb, r: &Ray) -> Option<f32> {
+    let c = b.center().as_dvec3();
+    let rad = f64::from(b.extent().min_element()) * 0.5;
+    let (o, d) = (r.origin.as_dvec3(), r.dir.as_dvec3());
+    let a = d.length_squared();
+    if a == 0.0 {
+        return None;
+    }
+    let oc = o - c;
+    let tc = -oc.dot(d) / a;
+    let l = oc + d * tc;
+    let disc = rad * rad - l.length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let h = (disc / a).sqrt();
+    let t = if tc - h >= f64::from(r.tmin) {
+        tc - h
+    } else {
+        tc + h
+    };
+    let mut t32 = t as f32;
+    if f64::from(t32) < t {
+        t32 = next_up(t32);
+    }
+    (t32 >= r.tmin && t32 <= r.tmax).then_some(t32)
+}
+
+fn next_up(x: f32) -> f32 {
+    if x.is_nan() || x == f32::INFINITY {
+        x
+    } else if x == 0.0 {
+        f32::from_bits(1)
+    } else if x > 0.0 {
+        f32::from_bits(x.to_bits() + 1)
+    } else {
+        f32::from_bits(x.to_bits() - 1)
+    }
+}
+
+fn boxes() -> impl Strategy<Value = Vec<Aabb>> {
+    prop::collection::vec(
+        (point(), (0.0f32..3.0, 0.0f32..3.0, 0.0f32..3.0)).prop_map(|(p, (x, y, z))| {
+            let q = Vec3::new(x, y, z);
+            Aabb::new(p.min(p + q), p.max(p + q))
+        }),
+        0..48,
+    )
+}
+
+proptest! {
+    // 64 cases keep the suite fast; set PROPTEST_CASES for a deeper search.
+    #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
+
+    #[test]
+    fn triangle_soups_match_brute_force(mesh in triangles(), rays in prop::collection::vec(ray_spec(), 1..24)) {
+        let n = mesh.triangles.len();
+        let list = List::build(&mesh);
+        let exact = |p: u32, r: &Ray| mesh.intersect(p as usize, r).map(|h| h.t);
+        let built = structures(&mesh);
+        for spec in &rays {
+            let ray = make_ray(spec, &mesh.vertices);
+            for (kind, a) in &built {
+                check(kind.name(), a, &list, n, &ray, &exact)?;
+            }
+        }
+    }
+
+    #[test]
+    fn boxed_spheres_match_brute_force(bs in boxes(), rays in prop::collection::vec(ray_spec(), 1..24)) {
+        let n = bs.len();
+        let list = List::build(&bs);
+        let exact = |p: u32, r: &Ray| sphere_hit(&bs[p as usize], r);
+        let built = structures(&bs);
+        let centers: Vec<Vec3> = bs.iter().map(Aabb::center).collect();
+        for spec in &rays {
+            let ray = make_ray(spec, &centers);
+            for (kind, a) in &built {
+                check(kind.name(), a, &list, n, &ray, &exact)?;
+            }
+        }
+    }
+}
+
+fn cases() -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(64)
+}
+
+#[test]
+fn names_round_trip() {
+    for k in AccelKind::ALL {
+        assert_eq!(k.name().parse::<AccelKind>().unwrap(), *k);
+    }
+    assert_eq!(AccelKind::DEFAULT, AccelKind::BvhSah);
+    assert!("octree".parse::<AccelKind>().is_err());
+    assert_eq!(AccelKind::ALL.len(), 8);
+}
