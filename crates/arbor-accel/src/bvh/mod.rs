@@ -416,6 +416,42 @@ impl Accelerator for Bvh {
     }
 }
 
+/// A tree built in parallel: sequentially built pieces joined by the
+/// interior nodes above them. Flattening it copies each node once, where
+/// appending each level's vectors into its parent's would copy the lower
+/// nodes once per parallel level.
+pub(crate) enum Subtree {
+    /// Nodes in depth-first order, child indices relative to the first.
+    Flat(Vec<BvhNode>),
+    /// An interior node with this box over two subtrees.
+    Split(Aabb, Box<(Subtree, Subtree)>),
+}
+
+impl Subtree {
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        match self {
+            Subtree::Flat(v) => v.len(),
+            Subtree::Split(_, c) => 1 + c.0.len() + c.1.len(),
+        }
+    }
+
+    /// Appends the nodes to `out` in depth-first order.
+    pub fn flatten_into(self, out: &mut Vec<BvhNode>) {
+        match self {
+            Subtree::Flat(v) => append_subtree(out, v),
+            Subtree::Split(b, children) => {
+                let me = out.len();
+                out.push(BvhNode::interior(&b, 0));
+                let (l, r) = *children;
+                l.flatten_into(out);
+                out[me].offset = out.len() as u32;
+                r.flatten_into(out);
+            }
+        }
+    }
+}
+
 /// Appends a subtree built into its own vector (for parallel builds) to
 /// `out`, shifting its interior nodes' child indices; leaf offsets are
 /// global already.

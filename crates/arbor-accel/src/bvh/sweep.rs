@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::{append_subtree, BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
+use super::{BvhNode, BvhParams, Ref, Subtree, FORCE_MEDIAN_DEPTH};
 use crate::Aabb;
 
 /// Shared, read-only per-reference data; orders hold indices into it.
@@ -54,29 +54,23 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         o
     });
     let [o0, o1, o2] = &mut orders;
-    let mut nodes = Vec::new();
-    let depth = recurse(
-        &data,
-        [o0, o1, o2],
-        0,
-        0,
-        params,
-        &mut nodes,
-        &mut Scratch::default(),
-    );
+    let (tree, depth) = recurse_par(&data, [o0, o1, o2], 0, 0, params);
+    let mut nodes = Vec::with_capacity(tree.len());
+    tree.flatten_into(&mut nodes);
     let order = orders[0].iter().map(|&i| refs[i as usize].id()).collect();
     (nodes, order, depth)
 }
 
-fn recurse(
+/// Decides one node over `orders` (the same set in each axis' order):
+/// returns the node's box and, unless it becomes a leaf, the split position
+/// after stably partitioning all three orders.
+fn decide(
     data: &Data,
-    mut orders: [&mut [u32]; 3],
-    first: usize,
+    orders: &mut [&mut [u32]; 3],
     depth: usize,
     params: &BvhParams,
-    out: &mut Vec<BvhNode>,
     scratch: &mut Scratch,
-) -> usize {
+) -> (Aabb, Option<usize>) {
     let n = orders[0].len();
     let b = orders[0]
         .iter()
@@ -124,8 +118,7 @@ fn recurse(
         }
     };
     let Some((axis, k)) = split else {
-        out.push(BvhNode::leaf(&b, first, n));
-        return depth;
+        return (b, None);
     };
     // Stable partition of the other two orders: the left side is exactly the
     // references that sort before the first right one along `axis`.
@@ -148,57 +141,75 @@ fn recurse(
         debug_assert_eq!(w, k);
         order[w..].copy_from_slice(&scratch.idx);
     }
-    let me = out.len();
-    out.push(BvhNode::interior(&b, 0));
+    (b, Some(k))
+}
+
+type Orders<'a> = [&'a mut [u32]; 3];
+
+/// Splits three orders at `k`.
+fn split_orders(orders: Orders<'_>, k: usize) -> (Orders<'_>, Orders<'_>) {
     let [o0, o1, o2] = orders;
     let (l0, r0) = o0.split_at_mut(k);
     let (l1, r1) = o1.split_at_mut(k);
     let (l2, r2) = o2.split_at_mut(k);
-    if n >= params.parallel_threshold {
-        let ((lv, ld), (rv, rd)) = rayon::join(
-            || {
-                let mut v = Vec::new();
-                let d = recurse(
-                    data,
-                    [l0, l1, l2],
-                    first,
-                    depth + 1,
-                    params,
-                    &mut v,
-                    &mut Scratch::default(),
-                );
-                (v, d)
-            },
-            || {
-                let mut v = Vec::new();
-                let d = recurse(
-                    data,
-                    [r0, r1, r2],
-                    first + k,
-                    depth + 1,
-                    params,
-                    &mut v,
-                    &mut Scratch::default(),
-                );
-                (v, d)
-            },
-        );
-        append_subtree(out, lv);
-        out[me].offset = out.len() as u32;
-        append_subtree(out, rv);
-        ld.max(rd)
-    } else {
-        let ld = recurse(data, [l0, l1, l2], first, depth + 1, params, out, scratch);
-        out[me].offset = out.len() as u32;
-        let rd = recurse(
+    ([l0, l1, l2], [r0, r1, r2])
+}
+
+/// Parallel recursion over large subtrees, as a [`Subtree`].
+fn recurse_par(
+    data: &Data,
+    mut orders: [&mut [u32]; 3],
+    first: usize,
+    depth: usize,
+    params: &BvhParams,
+) -> (Subtree, usize) {
+    let n = orders[0].len();
+    if n < params.parallel_threshold.max(2) {
+        let mut v = Vec::new();
+        let d = recurse(
             data,
-            [r0, r1, r2],
-            first + k,
-            depth + 1,
+            orders,
+            first,
+            depth,
             params,
-            out,
-            scratch,
+            &mut v,
+            &mut Scratch::default(),
         );
-        ld.max(rd)
+        return (Subtree::Flat(v), d);
     }
+    let (b, split) = decide(data, &mut orders, depth, params, &mut Scratch::default());
+    let Some(k) = split else {
+        return (Subtree::Flat(vec![BvhNode::leaf(&b, first, n)]), depth);
+    };
+    let (l, r) = split_orders(orders, k);
+    let ((lt, ld), (rt, rd)) = rayon::join(
+        || recurse_par(data, l, first, depth + 1, params),
+        || recurse_par(data, r, first + k, depth + 1, params),
+    );
+    (Subtree::Split(b, Box::new((lt, rt))), ld.max(rd))
+}
+
+/// Sequential recursion into `out`.
+fn recurse(
+    data: &Data,
+    mut orders: [&mut [u32]; 3],
+    first: usize,
+    depth: usize,
+    params: &BvhParams,
+    out: &mut Vec<BvhNode>,
+    scratch: &mut Scratch,
+) -> usize {
+    let n = orders[0].len();
+    let (b, split) = decide(data, &mut orders, depth, params, scratch);
+    let Some(k) = split else {
+        out.push(BvhNode::leaf(&b, first, n));
+        return depth;
+    };
+    let me = out.len();
+    out.push(BvhNode::interior(&b, 0));
+    let (l, r) = split_orders(orders, k);
+    let ld = recurse(data, l, first, depth + 1, params, out, scratch);
+    out[me].offset = out.len() as u32;
+    let rd = recurse(data, r, first + k, depth + 1, params, out, scratch);
+    ld.max(rd)
 }

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use glam::{Vec3, Vec4};
 
-use super::{append_subtree, BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
+use super::{BvhNode, BvhParams, Ref, Subtree, FORCE_MEDIAN_DEPTH};
 use crate::Aabb;
 
 /// Chunk of references binned or bounded by one task in parallel loops.
@@ -38,9 +38,10 @@ pub(super) fn build<S: Splitter>(
     refs: &mut [Ref],
     params: &BvhParams,
 ) -> (Vec<BvhNode>, Vec<u32>, usize) {
-    let mut nodes = Vec::with_capacity(2 * refs.len() / params.leaf_size.max(1) + 1);
     let bounds = bounds_of(refs);
-    let depth = recurse(s, refs, 0, 0, params, &mut nodes, bounds);
+    let (tree, depth) = recurse_par(s, refs, 0, 0, params, bounds);
+    let mut nodes = Vec::with_capacity(tree.len());
+    tree.flatten_into(&mut nodes);
     let order = if refs.len() > 2 * CHUNK {
         refs.par_iter().map(Ref::id).collect()
     } else {
@@ -66,17 +67,15 @@ pub(super) fn bounds_of(refs: &[Ref]) -> Bounds {
     (b.aabb(), c.aabb())
 }
 
-/// Builds the subtree over `refs` (which occupy primitive slots from
-/// `first`, with the given bounds) into `out`; returns the subtree's depth.
-pub(super) fn recurse<S: Splitter>(
+/// Decides one node: `None` for a leaf, else the split point (after
+/// partitioning `refs`) and both children's bounds.
+fn decide<S: Splitter>(
     s: &S,
     refs: &mut [Ref],
-    first: usize,
     depth: usize,
     params: &BvhParams,
-    out: &mut Vec<BvhNode>,
     (b, cb): Bounds,
-) -> usize {
+) -> Option<(usize, [Bounds; 2])> {
     let n = refs.len();
     let split = if n == 1 {
         Split::Leaf
@@ -91,41 +90,71 @@ pub(super) fn recurse<S: Splitter>(
         s.split(refs, &b, &cb, params)
     };
     let (k, child_bounds) = match split {
-        Split::Leaf => {
-            out.push(BvhNode::leaf(&b, first, n));
-            return depth;
-        }
+        Split::Leaf => return None,
         // A splitter that failed to separate anything falls back to halves.
         Split::At(k, _) if k == 0 || k >= n => (n / 2, None),
         Split::At(k, cb) => (k, cb),
     };
-    let me = out.len();
-    out.push(BvhNode::interior(&b, 0));
-    let (left, right) = refs.split_at_mut(k);
-    let [lb, rb] = child_bounds.unwrap_or_else(|| [bounds_of(left), bounds_of(right)]);
-    if n >= params.parallel_threshold {
-        let ((lv, ld), (rv, rd)) = rayon::join(
-            || {
-                let mut v = Vec::new();
-                let d = recurse(s, left, first, depth + 1, params, &mut v, lb);
-                (v, d)
-            },
-            || {
-                let mut v = Vec::new();
-                let d = recurse(s, right, first + k, depth + 1, params, &mut v, rb);
-                (v, d)
-            },
-        );
-        append_subtree(out, lv);
-        out[me].offset = out.len() as u32;
-        append_subtree(out, rv);
-        ld.max(rd)
-    } else {
-        let ld = recurse(s, left, first, depth + 1, params, out, lb);
-        out[me].offset = out.len() as u32;
-        let rd = recurse(s, right, first + k, depth + 1, params, out, rb);
-        ld.max(rd)
+    let (left, right) = refs.split_at(k);
+    Some((
+        k,
+        child_bounds.unwrap_or_else(|| [bounds_of(left), bounds_of(right)]),
+    ))
+}
+
+/// Builds the subtree over `refs` (which occupy primitive slots from
+/// `first`) in parallel while it is large, as a [`Subtree`] so that the
+/// final layout copies every node once.
+fn recurse_par<S: Splitter>(
+    s: &S,
+    refs: &mut [Ref],
+    first: usize,
+    depth: usize,
+    params: &BvhParams,
+    bounds: Bounds,
+) -> (Subtree, usize) {
+    if refs.len() < params.parallel_threshold.max(2) {
+        let mut v = Vec::new();
+        let d = recurse(s, refs, first, depth, params, &mut v, bounds);
+        return (Subtree::Flat(v), d);
     }
+    let Some((k, [lb, rb])) = decide(s, refs, depth, params, bounds) else {
+        return (
+            Subtree::Flat(vec![BvhNode::leaf(&bounds.0, first, refs.len())]),
+            depth,
+        );
+    };
+    let (left, right) = refs.split_at_mut(k);
+    let ((l, ld), (r, rd)) = rayon::join(
+        || recurse_par(s, left, first, depth + 1, params, lb),
+        || recurse_par(s, right, first + k, depth + 1, params, rb),
+    );
+    (Subtree::Split(bounds.0, Box::new((l, r))), ld.max(rd))
+}
+
+/// Builds the subtree over `refs` (which occupy primitive slots from
+/// `first`, with the given bounds) into `out`, sequentially; returns the
+/// subtree's depth.
+pub(super) fn recurse<S: Splitter>(
+    s: &S,
+    refs: &mut [Ref],
+    first: usize,
+    depth: usize,
+    params: &BvhParams,
+    out: &mut Vec<BvhNode>,
+    bounds: Bounds,
+) -> usize {
+    let Some((k, [lb, rb])) = decide(s, refs, depth, params, bounds) else {
+        out.push(BvhNode::leaf(&bounds.0, first, refs.len()));
+        return depth;
+    };
+    let me = out.len();
+    out.push(BvhNode::interior(&bounds.0, 0));
+    let (left, right) = refs.split_at_mut(k);
+    let ld = recurse(s, left, first, depth + 1, params, out, lb);
+    out[me].offset = out.len() as u32;
+    let rd = recurse(s, right, first + k, depth + 1, params, out, rb);
+    ld.max(rd)
 }
 
 /// Splits into halves by count along `axis`, ties broken by id so the result
