@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use arbor::film::ImageFormat;
-use arbor::flatten::FlatScene;
+use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
 use arbor::render::render;
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
@@ -37,6 +37,9 @@ pub struct RenderArgs {
     /// Print timings and structure statistics.
     #[arg(long)]
     pub stats: bool,
+    /// Most placements of shared (instanced) surfaces to accept.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PLACEMENTS)]
+    pub max_instances: u64,
 }
 
 /// Runs `arbor render`.
@@ -71,11 +74,10 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
     let loaded = start.elapsed();
 
-    let flat = FlatScene::new(&scene).map_err(|_| {
-        InputError("the scene has a transform that cannot be inverted (a zero scale)".into())
-    })?;
+    let flat = Flattened::new(&scene, args.max_instances).map_err(|e| InputError(e.to_string()))?;
+    let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
     let build_start = Instant::now();
-    let tracer = Tracer::new(flat, args.accel);
+    let tracer = Tracer::from_flattened(flat, args.accel);
     let built = build_start.elapsed();
 
     let cancel = Arc::new(AtomicBool::new(false));
@@ -105,13 +107,16 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     if args.stats {
         let s = arbor_accel::Accelerator::stats(tracer.accel());
         eprintln!(
-            "primitives {}  accel {}  nodes {}  leaves {}  depth {}  memory {} B",
-            tracer.scene().len(),
+            "primitives: {unique} unique, {} placements of shared geometry, {instanced} as placed",
+            tracer.placements()
+        );
+        eprintln!(
+            "accel {}: top level {} nodes, {} leaves, depth {}; all levels {} bytes",
             tracer.kind(),
             s.nodes,
             s.leaves,
             s.max_depth,
-            s.memory_bytes
+            tracer.accel_memory_bytes()
         );
         eprintln!(
             "time: load {:.3} s, build {:.3} s, render {:.3} s",

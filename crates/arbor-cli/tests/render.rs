@@ -217,12 +217,28 @@ fn ref_to_undefined_name() {
 }
 
 #[test]
-fn ref_to_a_surface_is_instancing_and_rejected() {
+fn reference_cycle_in_defs() {
     Case::new(&scene_2010(
-        r#"<surface type="Sphere" name="ball"/>
-<surface ref="ball"/>"#,
+        r#"<defs><surface type="Group" name="a"><surface ref="b"/></surface>
+<surface type="Group" name="b"><surface ref="a"/></surface></defs>"#,
     ))
-    .expect_error("s.xml:13:1: ", "instancing");
+    .expect_error("s.xml:12:7: ", "definitions form a cycle: a -> b -> a");
+}
+
+#[test]
+fn too_many_instances() {
+    let case = Case::new(&scene_2010(
+        r#"<defs><surface type="Sphere" name="a"/></defs>
+<surface ref="a"/><surface ref="a"/><surface ref="a"/>"#,
+    ));
+    let out = case.render(&["--max-instances", "2"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("places shared surfaces 3 times; the limit is 2"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(case.render(&["--max-instances", "3"]).status.success());
 }
 
 #[test]

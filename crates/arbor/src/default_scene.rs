@@ -2,8 +2,8 @@
 //!
 //! A classroom built the way the lecture builds scenes: a desk-and-chair
 //! assembly is made once from transformed boxes and cylinders, grouped, and
-//! placed many times by group transforms; a glass globe and a glazed ball
-//! sit on the teacher's desk.
+//! placed twelve times as instances (one shared assembly, twelve
+//! transforms); a glass globe and a glazed ball sit on the teacher's desk.
 
 use std::sync::Arc;
 
@@ -101,7 +101,7 @@ pub fn classroom() -> Scene {
         cuboid([-2.5, 1.0, -5.0], [2.5, 2.6, -4.95], &board),
     ];
     // Rows of identical desk-and-chair assemblies, placed by transforms.
-    let pupil = desk_and_chair(&wood, &metal, &seat);
+    let pupil = Arc::new(desk_and_chair(&wood, &metal, &seat));
     for row in 0..3 {
         for col in 0..4 {
             let x = -2.7 + 1.8 * col as f64;
@@ -110,7 +110,7 @@ pub fn classroom() -> Scene {
             let turn = rotation_degrees(DVec3::new(0.0, (col as f64 - 1.5) * 4.0, 0.0));
             surfaces.push(group(
                 translation(DVec3::new(x, 0.0, z)) * turn,
-                vec![pupil.clone()],
+                vec![Surface::Instance(pupil.clone())],
             ));
         }
     }

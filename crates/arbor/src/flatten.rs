@@ -3,13 +3,22 @@
 //! leaves; every leaf becomes one or more [`Primitive`]s that an acceleration
 //! structure can index by bounding box.
 //!
-//! Policy (today, with no instancing in the format yet): meshes are baked to
-//! world space in the 2010 variant, exactly as the course's references
-//! require (every vertex becomes `f32(M v)`, spec §5.3), and kept in object
-//! space with their transform in 2015; analytic shapes (sphere, box,
-//! cylinder) stay analytic and keep their composed transform, so a
-//! transformed sphere is still an exact ellipsoid.
+//! Policy:
+//!
+//! * Geometry placed once is baked into world space: in the 2010 variant a
+//!   mesh's vertices become `f32(M v)` exactly as the course's references
+//!   require (spec §5.3); 2015 meshes keep object space and their transform.
+//!   Analytic shapes (sphere, box, cylinder) stay analytic with their composed
+//!   transform, so a transformed sphere is still an exact ellipsoid.
+//! * A surface placed more than once (an [`Surface::Instance`] reached along
+//!   more than one path) stays shared: its own geometry is flattened once, in
+//!   its own space, and each placement is one transform referring to it.
+//!   Instances of instances are composed down to single placements of the
+//!   geometry they hold, so the renderer sees exactly two levels (see
+//!   [`Flattened`]). Memory follows the unique geometry plus one small
+//!   record per placement.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use arbor_accel::{Aabb, Vec3};
@@ -116,16 +125,11 @@ pub struct FlatScene {
 pub struct SingularTransform;
 
 impl FlatScene {
-    /// Flattens `scene`'s surface hierarchy.
+    /// Flattens `scene`'s surface hierarchy completely: every instance is
+    /// expanded into its own copy of the geometry, baked like any other leaf.
+    /// The reference for [`Flattened`], which keeps instances shared.
     pub fn new(scene: &Scene) -> Result<FlatScene, SingularTransform> {
-        let mut flat = FlatScene {
-            variant: scene.variant,
-            primitives: Vec::new(),
-            meshes: Vec::new(),
-            transforms: Vec::new(),
-            shaders: Vec::new(),
-            bounds: Vec::new(),
-        };
+        let mut flat = FlatScene::empty(scene.variant);
         let mut result = Ok(());
         for surface in &scene.surfaces {
             surface.for_each_leaf(DMat4::IDENTITY, &mut |leaf, m| {
@@ -135,10 +139,26 @@ impl FlatScene {
             });
         }
         result?;
-        flat.bounds = (0..flat.primitives.len())
-            .map(|i| flat.primitive_bounds(i))
-            .collect();
+        flat.finish();
         Ok(flat)
+    }
+
+    fn empty(variant: Variant) -> FlatScene {
+        FlatScene {
+            variant,
+            primitives: Vec::new(),
+            meshes: Vec::new(),
+            transforms: Vec::new(),
+            shaders: Vec::new(),
+            bounds: Vec::new(),
+        }
+    }
+
+    /// Computes the primitives' bounds once all leaves are in.
+    fn finish(&mut self) {
+        self.bounds = (0..self.primitives.len())
+            .map(|i| self.primitive_bounds(i))
+            .collect();
     }
 
     /// The variant whose conventions the intersection code follows.
@@ -283,7 +303,9 @@ impl FlatScene {
                 };
                 self.push_mesh(flat);
             }
-            Surface::Group(_) => unreachable!("for_each_leaf yields leaves only"),
+            Surface::Group(_) | Surface::Instance(_) => {
+                unreachable!("only leaves are added")
+            }
         }
         Ok(())
     }
@@ -471,4 +493,270 @@ pub fn to_f32_box(min: DVec3, max: DVec3, pad: f64) -> Aabb {
         Vec3::new(down(min.x), down(min.y), down(min.z)),
         Vec3::new(up(max.x), up(max.y), up(max.z)),
     )
+}
+
+/// One placement of shared geometry: which geometry, and the inverse of its
+/// composed world matrix (the ray goes into the geometry's space; normals
+/// come back by the inverse transpose, points by the world ray).
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
+    /// World to the geometry's space.
+    pub inverse: glam::DAffine3,
+    /// Index into [`Flattened::shared`].
+    pub geometry: u32,
+}
+
+impl Placement {
+    /// The world-space normal for a normal in the geometry's space (normalised).
+    pub fn normal_to_world(&self, n: DVec3) -> DVec3 {
+        (self.inverse.matrix3.transpose() * n).normalize()
+    }
+}
+
+/// Why a scene could not be flattened.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FlattenError {
+    /// A transform cannot be inverted (a zero scale).
+    SingularTransform,
+    /// More placements than the limit allows (checked before allocating them).
+    TooManyPlacements {
+        /// Placements the scene asks for.
+        count: u64,
+        /// The limit in force.
+        limit: u64,
+    },
+}
+
+impl std::fmt::Display for FlattenError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FlattenError::SingularTransform => {
+                f.write_str("the scene has a transform that cannot be inverted (a zero scale)")
+            }
+            FlattenError::TooManyPlacements { count, limit } => write!(
+                f,
+                "the scene places shared surfaces {count} times; the limit is {limit} (raise it with --max-instances)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for FlattenError {}
+
+impl From<SingularTransform> for FlattenError {
+    fn from(_: SingularTransform) -> Self {
+        FlattenError::SingularTransform
+    }
+}
+
+/// Default limit on placements of shared geometry.
+pub const DEFAULT_MAX_PLACEMENTS: u64 = 1 << 22;
+
+/// The scene after flattening with instancing kept: world-space geometry for
+/// what is placed once, shared geometry for what is placed more often, and
+/// the placements.
+#[derive(Clone, Debug)]
+pub struct Flattened {
+    /// Geometry placed once, in world space.
+    pub world: FlatScene,
+    /// Geometry placed more than once, each in its own space.
+    pub shared: Vec<FlatScene>,
+    /// Every placement of shared geometry.
+    pub placements: Vec<Placement>,
+}
+
+impl Flattened {
+    /// Flattens `scene`, keeping multiply-placed surfaces shared; fails
+    /// before allocating when more than `max_placements` placements would
+    /// result.
+    pub fn new(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
+        let uses = placement_counts(&scene.surfaces);
+        // Placements are made for each shared definition holding geometry,
+        // once per path that reaches it.
+        let total: u64 = uses
+            .values()
+            .filter(|(n, s)| *n > 1 && has_direct_geometry(s))
+            .fold(0u64, |a, (n, _)| a.saturating_add(*n));
+        if total > max_placements {
+            return Err(FlattenError::TooManyPlacements {
+                count: total,
+                limit: max_placements,
+            });
+        }
+        let mut builder = Builder {
+            uses,
+            shared_index: HashMap::new(),
+            out: Flattened {
+                world: FlatScene::empty(scene.variant),
+                shared: Vec::new(),
+                placements: Vec::with_capacity(total as usize),
+            },
+        };
+        for surface in &scene.surfaces {
+            builder.walk(surface, DMat4::IDENTITY)?;
+        }
+        builder.out.world.finish();
+        Ok(builder.out)
+    }
+
+    /// Unique primitives (world plus one copy of each shared geometry).
+    pub fn unique_primitives(&self) -> u64 {
+        self.world.len() as u64 + self.shared.iter().map(|s| s.len() as u64).sum::<u64>()
+    }
+
+    /// Primitives as placed (world plus each placement's geometry).
+    pub fn instanced_primitives(&self) -> u64 {
+        self.world.len() as u64
+            + self
+                .placements
+                .iter()
+                .map(|p| self.shared[p.geometry as usize].len() as u64)
+                .sum::<u64>()
+    }
+}
+
+fn key(shared: &Arc<Surface>) -> usize {
+    Arc::as_ptr(shared) as usize
+}
+
+/// Whether `s` holds leaves of its own (outside nested instances).
+fn has_direct_geometry(s: &Surface) -> bool {
+    match s {
+        Surface::Group(g) => g.children.iter().any(has_direct_geometry),
+        Surface::Instance(_) => false,
+        _ => true,
+    }
+}
+
+/// The instances directly inside `s` (not inside nested instances).
+fn direct_instances<'s>(s: &'s Surface, out: &mut Vec<&'s Arc<Surface>>) {
+    match s {
+        Surface::Group(g) => g.children.iter().for_each(|c| direct_instances(c, out)),
+        Surface::Instance(shared) => out.push(shared),
+        _ => {}
+    }
+}
+
+/// How many times each shared surface is placed in all (the number of paths
+/// from the roots to it), saturating.
+fn placement_counts(roots: &[Surface]) -> HashMap<usize, (u64, Arc<Surface>)> {
+    // Topological order of the DAG of shared surfaces (parents first).
+    fn visit(s: &Arc<Surface>, seen: &mut HashMap<usize, ()>, order: &mut Vec<Arc<Surface>>) {
+        if seen.insert(key(s), ()).is_some() {
+            return;
+        }
+        let mut children = Vec::new();
+        direct_instances(s, &mut children);
+        for c in children {
+            visit(c, seen, order);
+        }
+        order.push(s.clone());
+    }
+    let mut top = Vec::new();
+    roots.iter().for_each(|r| direct_instances(r, &mut top));
+    let mut seen = HashMap::new();
+    let mut order = Vec::new();
+    for s in &top {
+        visit(s, &mut seen, &mut order);
+    }
+    let mut counts: HashMap<usize, (u64, Arc<Surface>)> =
+        order.iter().map(|s| (key(s), (0, s.clone()))).collect();
+    for s in &top {
+        counts.get_mut(&key(s)).expect("visited").0 += 1;
+    }
+    for s in order.iter().rev() {
+        let n = counts[&key(s)].0;
+        let mut children = Vec::new();
+        direct_instances(s, &mut children);
+        for c in children {
+            let entry = counts.get_mut(&key(c)).expect("visited");
+            entry.0 = entry.0.saturating_add(n);
+        }
+    }
+    counts
+}
+
+struct Builder {
+    uses: HashMap<usize, (u64, Arc<Surface>)>,
+    shared_index: HashMap<usize, Option<u32>>,
+    out: Flattened,
+}
+
+impl Builder {
+    /// Adds `s` under world matrix `m`: leaves into the world geometry,
+    /// instances placed once inline, shared ones as placements.
+    fn walk(&mut self, s: &Surface, m: DMat4) -> Result<(), FlattenError> {
+        match s {
+            Surface::Group(g) => {
+                let m = m * g.transform;
+                for c in &g.children {
+                    self.walk(c, m)?;
+                }
+                Ok(())
+            }
+            Surface::Instance(shared) if self.uses[&key(shared)].0 <= 1 => self.walk(shared, m),
+            Surface::Instance(shared) => self.place(shared, m),
+            leaf => Ok(self.out.world.add_leaf(leaf, m)?),
+        }
+    }
+
+    /// Places shared surface `s` at `m`: one placement of its own geometry,
+    /// and its nested instances composed with `m`.
+    fn place(&mut self, s: &Arc<Surface>, m: DMat4) -> Result<(), FlattenError> {
+        if let Some(geometry) = self.shared_geometry(s)? {
+            let inverse = glam::DAffine3::from_mat4(m).inverse();
+            if !inverse.is_finite() || m.determinant() == 0.0 {
+                return Err(FlattenError::SingularTransform);
+            }
+            self.out.placements.push(Placement { inverse, geometry });
+        }
+        self.place_nested(s, m)
+    }
+
+    fn place_nested(&mut self, s: &Surface, m: DMat4) -> Result<(), FlattenError> {
+        match s {
+            Surface::Group(g) => {
+                let m = m * g.transform;
+                for c in &g.children {
+                    self.place_nested(c, m)?;
+                }
+                Ok(())
+            }
+            Surface::Instance(shared) => self.place(shared, m),
+            _ => Ok(()),
+        }
+    }
+
+    /// The index of `s`'s own geometry in [`Flattened::shared`] (flattened in
+    /// its own space on first use), or `None` when it holds only instances.
+    fn shared_geometry(&mut self, s: &Arc<Surface>) -> Result<Option<u32>, FlattenError> {
+        if let Some(&index) = self.shared_index.get(&key(s)) {
+            return Ok(index);
+        }
+        let index = if has_direct_geometry(s) {
+            let mut flat = FlatScene::empty(self.out.world.variant);
+            add_direct_leaves(&mut flat, s, DMat4::IDENTITY)?;
+            flat.finish();
+            self.out.shared.push(flat);
+            Some((self.out.shared.len() - 1) as u32)
+        } else {
+            None
+        };
+        self.shared_index.insert(key(s), index);
+        Ok(index)
+    }
+}
+
+fn add_direct_leaves(flat: &mut FlatScene, s: &Surface, m: DMat4) -> Result<(), SingularTransform> {
+    match s {
+        Surface::Group(g) => {
+            let m = m * g.transform;
+            for c in &g.children {
+                add_direct_leaves(flat, c, m)?;
+            }
+            Ok(())
+        }
+        Surface::Instance(_) => Ok(()),
+        leaf => flat.add_leaf(leaf, m),
+    }
 }

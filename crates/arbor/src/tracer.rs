@@ -27,129 +27,82 @@
 //! Candidates are re-evaluated exactly in `f64`; ties between primitives at
 //! the same `t` go to the lower primitive index, so every accelerator gives
 //! the same answer as brute force.
+//!
+//! ## Two levels
+//!
+//! A [`Tracer`] indexes the world-space primitives and the placements of
+//! shared geometry in one top-level structure; each shared geometry has its
+//! own bottom-level structure in its own space. A ray entering a placement's
+//! box is transformed once into that space (not renormalised, so `t` is the
+//! same in both) and traced through the bottom level, culled by the best hit
+//! so far. Each level applies the precision argument above to its own
+//! coordinates.
 
-use arbor_accel::{Accel, AccelKind, Accelerator, Counters, NoCounters, Ray, Vec3};
-use glam::DVec3;
+use arbor_accel::{Accel, AccelKind, Accelerator, Counters, NoCounters, Ray, RayCounts, Vec3};
+use glam::{DAffine3, DVec3};
+use rayon::prelude::*;
 
-use crate::flatten::{to_f32_box, FlatScene, Hit};
-
-/// A flattened scene with an acceleration structure over it.
-pub struct Tracer {
-    scene: FlatScene,
-    accel: Accel,
-    kind: AccelKind,
-    /// Padded scene bounds in `f64` (empty scene: `None`).
-    bounds: Option<(DVec3, DVec3)>,
-}
+use crate::flatten::{to_f32_box, FlatScene, Flattened, Hit, Placement};
+use crate::surface::Candidate;
 
 /// Relative size of the box pad, see the module documentation.
 const PAD_SCALE: f64 = 1.0 / (1u64 << 19) as f64;
 
-impl Tracer {
-    /// Builds an acceleration structure of `kind` over `scene`.
-    pub fn new(scene: FlatScene, kind: AccelKind) -> Tracer {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for i in 0..scene.len() {
-            let (a, b) = scene.bounds(i);
-            lo = lo.min(a);
-            hi = hi.max(b);
-        }
+/// Counters that can be split for a nested traversal and merged back.
+pub trait SplitCounters: Counters + Default {
+    /// Adds `other`'s counts to these.
+    fn merge(&mut self, other: Self);
+}
+
+impl SplitCounters for NoCounters {
+    #[inline(always)]
+    fn merge(&mut self, _: Self) {}
+}
+
+impl SplitCounters for RayCounts {
+    fn merge(&mut self, other: Self) {
+        *self += other;
+    }
+}
+
+/// The coordinate frame of one level: its padded `f64` bounds, for turning
+/// `f64` rays into conservative `f32` ones.
+#[derive(Clone, Copy, Debug)]
+struct Frame {
+    bounds: Option<(DVec3, DVec3)>,
+    pad: f64,
+}
+
+impl Frame {
+    fn new(boxes: &[(DVec3, DVec3)]) -> Frame {
+        let (lo, hi) = boxes.iter().fold(
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |(lo, hi), (a, b)| (lo.min(*a), hi.max(*b)),
+        );
         let magnitude = lo.abs().max(hi.abs()).max_element();
-        let (bounds, pad) = if scene.is_empty() || !magnitude.is_finite() {
-            (None, 0.0)
-        } else {
-            let pad = magnitude * PAD_SCALE + f64::MIN_POSITIVE;
-            (Some((lo - 2.0 * pad, hi + 2.0 * pad)), pad)
-        };
-        let boxes: Vec<_> = (0..scene.len())
-            .map(|i| {
-                let (a, b) = scene.bounds(i);
-                to_f32_box(a, b, pad)
-            })
-            .collect();
-        let accel = Accel::build(kind, &boxes);
-        Tracer {
-            scene,
-            accel,
-            kind,
-            bounds,
+        if boxes.is_empty() || !magnitude.is_finite() {
+            return Frame {
+                bounds: None,
+                pad: 0.0,
+            };
+        }
+        let pad = magnitude * PAD_SCALE + f64::MIN_POSITIVE;
+        Frame {
+            bounds: Some((lo - 2.0 * pad, hi + 2.0 * pad)),
+            pad,
         }
     }
 
-    /// The flattened scene.
-    pub fn scene(&self) -> &FlatScene {
-        &self.scene
-    }
-
-    /// The acceleration structure.
-    pub fn accel(&self) -> &Accel {
-        &self.accel
-    }
-
-    /// Which structure this is.
-    pub fn kind(&self) -> AccelKind {
-        self.kind
-    }
-
-    /// The nearest hit of `o + t d` with `t` in `(tmin, tmax)`.
-    pub fn closest(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<Hit<'_>> {
-        self.closest_counted(o, d, tmin, tmax, &mut NoCounters)
-    }
-
-    /// [`Tracer::closest`], counting traversal work into `counters`.
-    pub fn closest_counted<C: Counters>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-        counters: &mut C,
-    ) -> Option<Hit<'_>> {
-        let (ray, t0) = self.f32_ray(o, d, tmin, tmax)?;
-        let mut best: Option<(u32, crate::surface::Candidate)> = None;
-        self.accel.closest(&ray, counters, |prim, _| {
-            let c = self.scene.intersect(prim as usize, o, d, tmin, tmax)?;
-            let better = match best {
-                None => true,
-                Some((p, b)) => c.t < b.t || (c.t == b.t && prim < p),
-            };
-            if !better {
-                return None;
-            }
-            best = Some((prim, c));
-            Some(cull_distance(c.t - t0))
-        });
-        best.map(|(prim, c)| self.scene.hit(prim as usize, o, d, c))
-    }
-
-    /// Whether anything lies on `o + t d` with `t` in `(tmin, tmax)`.
-    pub fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
-        self.occluded_counted(o, d, tmin, tmax, &mut NoCounters)
-    }
-
-    /// [`Tracer::occluded`], counting traversal work into `counters`.
-    pub fn occluded_counted<C: Counters>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-        counters: &mut C,
-    ) -> bool {
-        let Some((ray, _)) = self.f32_ray(o, d, tmin, tmax) else {
-            return false;
-        };
-        self.accel.occluded(&ray, counters, |prim, _| {
-            self.scene
-                .intersect(prim as usize, o, d, tmin, tmax)
-                .is_some()
-        })
+    fn boxes(&self, boxes: &[(DVec3, DVec3)]) -> Vec<arbor_accel::Aabb> {
+        boxes
+            .par_iter()
+            .map(|(a, b)| to_f32_box(*a, *b, self.pad))
+            .collect()
     }
 
     /// The `f32` ray for traversal, starting where the `f64` ray enters the
-    /// padded scene box, and that entry parameter `t0`; `None` when the ray
-    /// misses the scene.
+    /// padded bounds, and that entry parameter `t0`; `None` when the ray
+    /// misses them.
     fn f32_ray(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(Ray, f64)> {
         let (lo, hi) = self.bounds?;
         let inv = d.recip();
@@ -159,7 +112,8 @@ impl Tracer {
         let near = DVec3::select(on_plane, DVec3::NEG_INFINITY, a.min(b)).max_element();
         let far = DVec3::select(on_plane, DVec3::INFINITY, a.max(b)).min_element();
         let t0 = near.max(tmin);
-        if t0 > far.min(tmax) {
+        // Written so that a NaN (a degenerate ray) also misses.
+        if t0.partial_cmp(&far.min(tmax)).is_none_or(|o| o.is_gt()) {
             return None;
         }
         let start = o + t0 * d;
@@ -172,6 +126,314 @@ impl Tracer {
         );
         Some((ray, t0))
     }
+}
+
+/// Whether a candidate at `t` from top-level primitive `prim` beats `best`:
+/// nearer, or equally near and earlier in the scene.
+fn beats(t: f64, prim: u32, best: Option<(u32, f64)>) -> bool {
+    match best {
+        None => true,
+        Some((p, b)) => t < b || (t == b && prim < p),
+    }
+}
+
+/// One level: geometry in one space with its acceleration structure.
+struct Level {
+    scene: FlatScene,
+    accel: Accel,
+    frame: Frame,
+}
+
+impl Level {
+    fn new(scene: FlatScene, kind: AccelKind) -> Level {
+        let boxes: Vec<_> = (0..scene.len()).map(|i| scene.bounds(i)).collect();
+        let frame = Frame::new(&boxes);
+        let accel = Accel::build(kind, &frame.boxes(&boxes));
+        Level {
+            scene,
+            accel,
+            frame,
+        }
+    }
+
+    /// The nearest primitive hit in `(tmin, tmax)`, offering only candidates
+    /// up to `cull` (a known hit elsewhere); `cull >= tmax` offers all.
+    fn closest<C: Counters>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        cull: f64,
+        counters: &mut C,
+    ) -> Option<(u32, Candidate)> {
+        let (ray, t0) = self.frame.f32_ray(o, d, tmin, tmax.min(cull))?;
+        let mut best: Option<(u32, Candidate)> = None;
+        self.accel.closest(&ray, counters, |prim, _| {
+            let c = self.scene.intersect(prim as usize, o, d, tmin, tmax)?;
+            if c.t > cull || !beats(c.t, prim, best.map(|(p, b)| (p, b.t))) {
+                return None;
+            }
+            best = Some((prim, c));
+            Some(cull_distance(c.t - t0))
+        });
+        best
+    }
+
+    fn occluded<C: Counters>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        counters: &mut C,
+    ) -> bool {
+        let Some((ray, _)) = self.frame.f32_ray(o, d, tmin, tmax) else {
+            return false;
+        };
+        self.accel.occluded(&ray, counters, |prim, _| {
+            self.scene
+                .intersect(prim as usize, o, d, tmin, tmax)
+                .is_some()
+        })
+    }
+}
+
+/// Where the nearest hit of a top-level query lies.
+#[derive(Clone, Copy)]
+enum Found {
+    World(u32, Candidate),
+    Shared {
+        placement: u32,
+        prim: u32,
+        candidate: Candidate,
+    },
+}
+
+impl Found {
+    fn t(&self) -> f64 {
+        match self {
+            Found::World(_, c) => c.t,
+            Found::Shared { candidate, .. } => candidate.t,
+        }
+    }
+}
+
+/// A flattened scene with its acceleration structures: ray queries in `f64`.
+pub struct Tracer {
+    world: FlatScene,
+    shared: Vec<Level>,
+    placements: Vec<Placement>,
+    top: Accel,
+    frame: Frame,
+    kind: AccelKind,
+}
+
+impl Tracer {
+    /// Builds structures of `kind` over a completely flattened scene (no
+    /// shared geometry).
+    pub fn new(scene: FlatScene, kind: AccelKind) -> Tracer {
+        Tracer::from_flattened(
+            Flattened {
+                world: scene,
+                shared: Vec::new(),
+                placements: Vec::new(),
+            },
+            kind,
+        )
+    }
+
+    /// Builds structures of `kind` at both levels: one per shared geometry,
+    /// and one over the world primitives and the placements.
+    pub fn from_flattened(flat: Flattened, kind: AccelKind) -> Tracer {
+        let shared: Vec<Level> = flat
+            .shared
+            .into_par_iter()
+            .map(|s| Level::new(s, kind))
+            .collect();
+        let world = flat.world;
+        let placements = flat.placements;
+        let mut boxes: Vec<(DVec3, DVec3)> = (0..world.len()).map(|i| world.bounds(i)).collect();
+        let placement_boxes: Vec<(DVec3, DVec3)> = placements
+            .par_iter()
+            .map(|p| {
+                let level = &shared[p.geometry as usize];
+                match level.frame.bounds {
+                    Some((lo, hi)) => world_box(&p.inverse.inverse(), lo, hi),
+                    None => (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                }
+            })
+            .collect();
+        boxes.extend(placement_boxes);
+        let frame = Frame::new(&boxes);
+        let top = Accel::build(kind, &frame.boxes(&boxes));
+        Tracer {
+            world,
+            shared,
+            placements,
+            top,
+            frame,
+            kind,
+        }
+    }
+
+    /// The world-space primitives.
+    pub fn scene(&self) -> &FlatScene {
+        &self.world
+    }
+
+    /// The top-level acceleration structure.
+    pub fn accel(&self) -> &Accel {
+        &self.top
+    }
+
+    /// Which structure this is.
+    pub fn kind(&self) -> AccelKind {
+        self.kind
+    }
+
+    /// Number of placements of shared geometry.
+    pub fn placements(&self) -> usize {
+        self.placements.len()
+    }
+
+    /// Bytes of all acceleration structures (both levels).
+    pub fn accel_memory_bytes(&self) -> usize {
+        self.top.stats().memory_bytes
+            + self
+                .shared
+                .iter()
+                .map(|l| l.accel.stats().memory_bytes)
+                .sum::<usize>()
+    }
+
+    /// The nearest hit of `o + t d` with `t` in `(tmin, tmax)`.
+    pub fn closest(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<Hit<'_>> {
+        self.closest_counted(o, d, tmin, tmax, &mut NoCounters)
+    }
+
+    /// [`Tracer::closest`], counting traversal work (both levels) into `counters`.
+    pub fn closest_counted<C: SplitCounters>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        counters: &mut C,
+    ) -> Option<Hit<'_>> {
+        let (ray, t0) = self.frame.f32_ray(o, d, tmin, tmax)?;
+        let n_world = self.world.len() as u32;
+        let mut best: Option<(u32, Found)> = None;
+        let mut inner = C::default();
+        self.top.closest(&ray, counters, |prim, _| {
+            let best_so_far = best.map(|(p, f)| (p, f.t()));
+            let found = if prim < n_world {
+                let c = self.world.intersect(prim as usize, o, d, tmin, tmax)?;
+                Found::World(prim, c)
+            } else {
+                let placement = prim - n_world;
+                let p = &self.placements[placement as usize];
+                let (lo, ld) = (
+                    p.inverse.transform_point3(o),
+                    p.inverse.transform_vector3(d),
+                );
+                let cull = best_so_far.map_or(tmax, |(_, t)| t);
+                let level = &self.shared[p.geometry as usize];
+                let (local, candidate) = level.closest(lo, ld, tmin, tmax, cull, &mut inner)?;
+                Found::Shared {
+                    placement,
+                    prim: local,
+                    candidate,
+                }
+            };
+            if !beats(found.t(), prim, best_so_far) {
+                return None;
+            }
+            best = Some((prim, found));
+            Some(cull_distance(found.t() - t0))
+        });
+        counters.merge(inner);
+        let (_, found) = best?;
+        Some(match found {
+            Found::World(prim, c) => self.world.hit(prim as usize, o, d, c),
+            Found::Shared {
+                placement,
+                prim,
+                candidate,
+            } => {
+                let p = &self.placements[placement as usize];
+                let (lo, ld) = (
+                    p.inverse.transform_point3(o),
+                    p.inverse.transform_vector3(d),
+                );
+                let local =
+                    self.shared[p.geometry as usize]
+                        .scene
+                        .hit(prim as usize, lo, ld, candidate);
+                Hit {
+                    t: candidate.t,
+                    point: o + candidate.t * d,
+                    normal: p.normal_to_world(local.normal),
+                    uv: local.uv,
+                    shader: local.shader,
+                }
+            }
+        })
+    }
+
+    /// Whether anything lies on `o + t d` with `t` in `(tmin, tmax)`.
+    pub fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
+        self.occluded_counted(o, d, tmin, tmax, &mut NoCounters)
+    }
+
+    /// [`Tracer::occluded`], counting traversal work into `counters`.
+    pub fn occluded_counted<C: SplitCounters>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        counters: &mut C,
+    ) -> bool {
+        let Some((ray, _)) = self.frame.f32_ray(o, d, tmin, tmax) else {
+            return false;
+        };
+        let n_world = self.world.len() as u32;
+        let mut inner = C::default();
+        let hit = self.top.occluded(&ray, counters, |prim, _| {
+            if prim < n_world {
+                return self
+                    .world
+                    .intersect(prim as usize, o, d, tmin, tmax)
+                    .is_some();
+            }
+            let p = &self.placements[(prim - n_world) as usize];
+            let (lo, ld) = (
+                p.inverse.transform_point3(o),
+                p.inverse.transform_vector3(d),
+            );
+            self.shared[p.geometry as usize].occluded(lo, ld, tmin, tmax, &mut inner)
+        });
+        counters.merge(inner);
+        hit
+    }
+}
+
+/// The world box of a local box under `m`: the box of its 8 transformed corners.
+fn world_box(m: &DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+    let mut a = DVec3::splat(f64::INFINITY);
+    let mut b = DVec3::splat(f64::NEG_INFINITY);
+    for i in 0..8 {
+        let c = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = m.transform_point3(c);
+        a = a.min(w);
+        b = b.max(w);
+    }
+    (a, b)
 }
 
 /// `t` rounded up to `f32` and one step more, so that rounding in the

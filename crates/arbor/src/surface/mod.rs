@@ -38,6 +38,10 @@ pub enum Surface {
     Mesh(MeshSurface),
     /// Children under a common transformation.
     Group(Group),
+    /// Instancing: a placement of a surface that may be placed many times.
+    /// The enclosing groups' transforms place it; the surface itself is
+    /// shared, never copied, so the scene graph is a DAG.
+    Instance(Arc<Surface>),
 }
 
 /// A triangle mesh placed in the scene.
@@ -51,7 +55,9 @@ pub struct MeshSurface {
 
 impl Surface {
     /// Calls `visit` with every leaf and its world matrix, depth first in
-    /// document order. `parent` is the matrix of the enclosing groups.
+    /// document order, expanding every instance (so a shared surface is
+    /// visited once per placement). `parent` is the matrix of the enclosing
+    /// groups.
     pub fn for_each_leaf(&self, parent: DMat4, visit: &mut dyn FnMut(&Surface, DMat4)) {
         match self {
             Surface::Group(g) => {
@@ -60,6 +66,7 @@ impl Surface {
                     child.for_each_leaf(m, visit);
                 }
             }
+            Surface::Instance(shared) => shared.for_each_leaf(parent, visit),
             leaf => visit(leaf, parent),
         }
     }

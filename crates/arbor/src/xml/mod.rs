@@ -125,6 +125,8 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene> {
         warnings: Vec::new(),
         meshes: HashMap::new(),
         depth: 0,
+        pending: HashMap::new(),
+        resolving: Vec::new(),
     };
     let scene = loader.scene(root)?;
     Ok(LoadedScene {
@@ -150,7 +152,7 @@ fn detect_variant(root: Node) -> Variant {
 #[derive(Clone)]
 enum Named {
     Shader(Arc<Shader>),
-    Surface,
+    Surface(Arc<Surface>),
     Camera(Camera),
     Light(Light),
     Texture(Arc<Texture>),
@@ -165,7 +167,7 @@ impl Named {
     fn kind(&self) -> &'static str {
         match self {
             Named::Shader(_) => "shader",
-            Named::Surface => "surface",
+            Named::Surface(_) => "surface",
             Named::Camera(_) => "camera",
             Named::Light(_) => "light",
             Named::Texture(_) => "texture",
@@ -184,6 +186,11 @@ struct Loader<'a, 'input> {
     warnings: Vec<String>,
     meshes: HashMap<PathBuf, Arc<MeshData>>,
     depth: usize,
+    /// `<defs>` entries not parsed yet, by name: definitions may refer to
+    /// each other in any order, so each is parsed when first needed.
+    pending: HashMap<String, Node<'a, 'input>>,
+    /// The definitions being parsed, outermost first (to report cycles).
+    resolving: Vec<String>,
 }
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -355,7 +362,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         }
     }
 
-    fn scene(&mut self, root: Node) -> Result<Scene> {
+    fn scene(&mut self, root: Node<'a, 'input>) -> Result<Scene> {
         self.check_attributes(root);
         let mut camera = None;
         let mut size = None;
@@ -365,7 +372,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         let mut background = DVec3::ZERO;
         let mut exposure = 1.0;
         let mut cubemap = None;
-        let mut expected = vec!["camera", "image", "samples", "light", "surface", "shader"];
+        let mut expected = vec![
+            "camera", "image", "samples", "light", "surface", "shader", "defs",
+        ];
         if self.is2015() {
             expected.extend(["backColor", "exposure", "cubemap"]);
         }
@@ -384,6 +393,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                     samples = Scene::samples_per_side_for(n as u32);
                 }
                 "light" => lights.push(self.light(child)?),
+                "defs" => self.defs(child)?,
                 "surface" => surfaces.push(self.surface(child)?),
                 "shader" => {
                     self.shader(child)?;
@@ -798,19 +808,78 @@ impl<'a, 'input> Loader<'a, 'input> {
         Ok(map)
     }
 
-    fn surface(&mut self, node: Node) -> Result<Surface> {
+    /// `<defs>`: named surfaces that are not rendered by themselves, only
+    /// placed by `<surface ref="NAME"/>`. They may refer to each other in any
+    /// order; a cycle is an error naming its members.
+    fn defs(&mut self, node: Node<'a, 'input>) -> Result<()> {
         self.check_attributes(node);
+        let mut order = Vec::new();
+        for child in elements(node) {
+            if key(child) != "surface" {
+                return Err(self.unknown_element(child, "<defs>", &["surface"]));
+            }
+            if child.has_attribute("ref") {
+                return Err(self.error(
+                    child,
+                    "a definition in <defs> cannot itself be a ref; give it a type",
+                ));
+            }
+            let Some(name) = child.attribute("name") else {
+                return Err(self.error(
+                    child,
+                    "every surface in <defs> needs a name=\"...\" to be placed by",
+                ));
+            };
+            if self.pending.insert(name.to_string(), child).is_some() {
+                return Err(self.error(child, format!("'{name}' is defined twice in <defs>")));
+            }
+            order.push(name.to_string());
+        }
+        for name in order {
+            if let Some(def) = self.pending.get(&name).copied() {
+                self.resolve(&name, def)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Parses the pending definition `name` now (it is needed by a `ref`).
+    fn resolve(&mut self, name: &str, def: Node<'a, 'input>) -> Result<()> {
+        if let Some(start) = self.resolving.iter().position(|n| n == name) {
+            let mut cycle = self.resolving[start..].to_vec();
+            cycle.push(name.to_string());
+            return Err(self.error(
+                def,
+                format!("definitions form a cycle: {}", cycle.join(" -> ")),
+            ));
+        }
+        self.depth += 1;
+        if self.depth > MAX_NESTING {
+            return Err(self.error(
+                def,
+                format!("definitions refer to each other more than {MAX_NESTING} deep"),
+            ));
+        }
+        self.resolving.push(name.to_string());
+        self.surface(def)?;
+        self.resolving.pop();
+        self.pending.remove(name);
+        self.depth -= 1;
+        Ok(())
+    }
+
+    fn surface(&mut self, node: Node<'a, 'input>) -> Result<Surface> {
+        self.check_attributes(node);
+        if let Some(name) = node.attribute("ref") {
+            if let Some(def) = self.pending.get(name).copied() {
+                self.resolve(name, def)?;
+            }
+        }
         if let Some(named) = self.referenced(node)? {
-            return Err(match named {
-                Named::Surface => self.error(
-                    node,
-                    format!(
-                        "<surface ref=\"{}\">: reusing a named surface is instancing, which this version of arbor does not support yet; copy the surface instead",
-                        node.attribute("ref").unwrap_or_default()
-                    ),
-                ),
-                other => self.wrong_kind(node, &other, "surface"),
-            });
+            return match named {
+                Named::Surface(shared) => Ok(Surface::Instance(shared)),
+                other => Err(self.wrong_kind(node, &other, "surface")),
+            };
         }
         let mut types = vec!["Sphere", "Box", "Mesh", "Group"];
         if self.is2015() {
@@ -936,7 +1005,13 @@ impl<'a, 'input> Loader<'a, 'input> {
                 })
             }
         };
-        self.remember(node, Named::Surface);
+        // A named surface may be placed again by `ref`: share it from the start,
+        // so that every placement (this one included) is an instance of it.
+        if node.has_attribute("name") {
+            let shared = Arc::new(surface);
+            self.remember(node, Named::Surface(shared.clone()));
+            return Ok(Surface::Instance(shared));
+        }
         Ok(surface)
     }
 
