@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod compare;
+mod info;
 mod render;
 mod trace;
 
@@ -22,6 +23,8 @@ struct Cli {
 enum Command {
     /// Render a scene to a PNG or EXR image (no scene: the built-in default scene).
     Render(render::RenderArgs),
+    /// Describe a scene: settings, hierarchy, unique and instanced primitives.
+    Info(info::InfoArgs),
     /// Compare two images: PSNR, mean/max error, fraction within 2/255.
     Compare(compare::CompareArgs),
     /// Trace a batch of rays against a triangle mesh (the ray/hit file interface).
@@ -58,6 +61,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render::run(args),
         Command::Compare(args) => compare::run(args),
+        Command::Info(args) => info::run(args),
         Command::Trace(args) => trace::run(args),
     };
     match result {

@@ -402,3 +402,28 @@ fn compare_reports_and_enforces_thresholds() {
         Some(2)
     );
 }
+
+#[test]
+fn info_reports_hierarchy_and_instancing() {
+    let case = Case::new(&scene_2010(
+        r#"<defs><surface type="Mesh" name="tri"><data>tri.msh</data></surface></defs>
+<surface type="Group"><translate>1 0 0</translate><surface ref="tri"/></surface>
+<surface type="Group"><translate>-1 0 0</translate><surface ref="tri"/></surface>"#,
+    ));
+    let out = arbor(case.path(), &["info", "s.xml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    for line in [
+        "image       16x12, 1 samples per pixel",
+        "primitives  2 unique",
+        "placements  2 of shared geometry",
+        "as placed   3 primitives",
+        "instance of #1:",
+        "mesh 1 triangles, 3 vertices",
+        "instance of #1 (shown above)",
+    ] {
+        assert!(text.contains(line), "missing {line:?} in:\n{text}");
+    }
+    let out = arbor(case.path(), &["info", "missing.xml"]);
+    assert_eq!(out.status.code(), Some(2));
+}
