@@ -13,6 +13,7 @@ pub mod film;
 pub mod flatten;
 pub mod light;
 pub mod mesh;
+pub mod partial;
 pub mod render;
 pub mod scene;
 pub mod shader;
