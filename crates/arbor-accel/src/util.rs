@@ -36,42 +36,56 @@ pub(crate) struct Prepared {
     pub bounds: Aabb,
 }
 
-/// Sorts primitives by the usability of their boxes. Empty boxes enclose
-/// nothing, so such primitives cannot be hit and are dropped.
-pub(crate) fn prepare<P: Primitives + ?Sized>(prims: &P) -> Prepared {
+/// How a structure treats a primitive's box: 0 = empty (the primitive
+/// cannot be hit and is dropped), 1 = usable, 2 = NaN or infinite (unknown
+/// extent: offered to every ray).
+fn classify(b: &Aabb) -> u8 {
+    if b.min.is_nan() || b.max.is_nan() {
+        2
+    } else if b.is_empty() {
+        0
+    } else if !(b.min.is_finite() && b.max.is_finite()) {
+        2
+    } else {
+        1
+    }
+}
+
+/// Maps every primitive with a usable box through `f` (in index order, in
+/// parallel) and lists those whose box is not finite.
+pub(crate) fn prepare_map<P, T, F>(prims: &P, f: F) -> (Vec<T>, Vec<u32>)
+where
+    P: Primitives + ?Sized,
+    T: Send,
+    F: Fn(u32, Aabb) -> T + Sync + Send,
+{
     let n = u32::try_from(prims.len()).expect("more than 2^32 primitives");
-    let classified: Vec<(u32, Aabb, u8)> = (0..n)
+    // An indexed map writes straight into place (and keeps the order, so
+    // results are deterministic); the rare unusable boxes are filtered after.
+    let (items, kinds): (Vec<T>, Vec<u8>) = (0..n)
         .into_par_iter()
         .map(|i| {
             let b = prims.bounds(i as usize);
-            let nan = b.min.is_nan() || b.max.is_nan();
-            let finite = b.min.is_finite() && b.max.is_finite();
-            // NaN or infinite: unknown extent (2); empty (0); usable (1).
-            let kind = if nan {
-                2
-            } else if b.is_empty() {
-                0
-            } else if !finite {
-                2
-            } else {
-                1
-            };
-            (i, b, kind)
+            (f(i, b), classify(&b))
         })
-        .collect();
-    let mut refs = Vec::with_capacity(classified.len());
-    let mut unbounded = Vec::new();
-    let mut bounds = Aabb::EMPTY;
-    for (i, b, kind) in classified {
-        match kind {
-            1 => {
-                bounds = bounds.union(&b);
-                refs.push((i, b));
-            }
-            2 => unbounded.push(i),
-            _ => {}
-        }
+        .unzip();
+    if kinds.iter().all(|&k| k == 1) {
+        return (items, Vec::new());
     }
+    let unbounded = (0..n).filter(|&i| kinds[i as usize] == 2).collect();
+    let items = items
+        .into_iter()
+        .zip(&kinds)
+        .filter(|&(_, &k)| k == 1)
+        .map(|(t, _)| t)
+        .collect();
+    (items, unbounded)
+}
+
+/// Sorts primitives by the usability of their boxes (see [`prepare_map`]).
+pub(crate) fn prepare<P: Primitives + ?Sized>(prims: &P) -> Prepared {
+    let (refs, unbounded) = prepare_map(prims, |i, b| (i, b));
+    let bounds = refs.iter().fold(Aabb::EMPTY, |acc, (_, b)| acc.union(b));
     Prepared {
         refs,
         unbounded,

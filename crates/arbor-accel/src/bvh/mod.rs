@@ -12,9 +12,7 @@ mod topdown;
 
 use glam::{Vec3, Vec4};
 
-use rayon::prelude::*;
-
-use crate::util::{prepare, widen_up};
+use crate::util::{prepare_map, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Depth from which every builder stops optimising and splits by count, so
@@ -195,14 +193,9 @@ impl Bvh {
         builder: BvhBuilder,
         params: &BvhParams,
     ) -> Self {
-        let prep = prepare(prims);
-        let mut refs: Vec<Ref> = prep
-            .refs
-            .par_iter()
-            .map(|&(id, b)| Ref::new(id, &b))
-            .collect();
+        let (mut refs, unbounded) = prepare_map(prims, |id, b| Ref::new(id, &b));
         let mut bvh = Bvh {
-            unbounded: prep.unbounded,
+            unbounded,
             ..Bvh::default()
         };
         if refs.is_empty() {

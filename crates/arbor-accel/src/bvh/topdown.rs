@@ -114,7 +114,8 @@ fn recurse_par<S: Splitter>(
     bounds: Bounds,
 ) -> (Subtree, usize) {
     if refs.len() < params.parallel_threshold.max(2) {
-        let mut v = Vec::new();
+        // Rarely more than 2n nodes; reserving avoids regrowth copies.
+        let mut v = Vec::with_capacity(2 * refs.len());
         let d = recurse(s, refs, first, depth, params, &mut v, bounds);
         return (Subtree::Flat(v), d);
     }
@@ -270,6 +271,9 @@ const MAX_BINS: usize = 32;
 /// clearing and sweeping more bins than references costs more than it gains.
 const SMALL: usize = 32;
 
+/// Nodes from this size on bin a 1-in-4 sample.
+const SAMPLE_FROM: usize = 1 << 14;
+
 /// Per-axis bins: box and count of the references whose centroid falls in.
 #[derive(Clone, Copy)]
 struct Bins<const B: usize> {
@@ -381,8 +385,13 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
         scale: scale.extend(0.0),
         last: (B - 1) as f32,
     };
+    // Large nodes bin every 4th reference only: the SAH over a sample of
+    // thousands picks practically the same plane, and binning is the
+    // costliest pass. The sample is fixed by index (chunks start at
+    // multiples of 4), so it does not depend on the thread count.
+    let stride = if n >= SAMPLE_FROM { 4 } else { 1 };
     let fill = |mut acc: Bins<B>, chunk: &[Ref]| {
-        for r in chunk {
+        for r in chunk.iter().step_by(stride) {
             let k = binner.indices(r.centroid4());
             for (a, &i) in k.iter().enumerate() {
                 acc.b[a][i] = acc.b[a][i].grow(r.min, r.max);
@@ -409,6 +418,7 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
             right_area[i][a] = racc[a].area();
         }
     }
+    let total: u32 = acc.n[0].iter().sum();
     let mut best: Option<(f32, usize, usize)> = None;
     let mut best_cost = f32::INFINITY;
     let mut lacc = [B4::EMPTY; 3];
@@ -418,7 +428,7 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
         for a in 0..3 {
             lacc[a] = lacc[a].union(&acc.b[a][i - 1]);
             nl[a] += acc.n[a][i - 1];
-            let nr = n as u32 - nl[a];
+            let nr = total - nl[a];
             let cost = lacc[a].area() * nl[a] as f32 + right_area[i][a] * nr as f32;
             // Empty sides and flat axes are no split; strict `<` keeps the
             // first of equal candidates, so the choice is deterministic.
@@ -428,8 +438,6 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
             }
         }
     }
-    let area = b.surface_area();
-    let leaf_cost = ci * n as f32 * area;
     let Some((cost, a, i)) = best else {
         return if n <= params.max_leaf_size {
             Split::Leaf
@@ -437,29 +445,26 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
             median_split(refs, cb.largest_axis())
         };
     };
-    if n <= params.max_leaf_size && leaf_cost <= ct * area + ci * cost {
+    // Sampled nodes are far above any leaf size, so only full bins are
+    // weighed against a leaf.
+    let area = b.surface_area();
+    if stride == 1 && n <= params.max_leaf_size && ci * n as f32 * area <= ct * area + ci * cost {
         return Split::Leaf;
     }
-    // The children's boxes are the unions of their bins; their centroid
-    // boxes are gathered while partitioning.
-    let (lb, rb) = acc.b[a]
-        .iter()
-        .enumerate()
-        .fold((B4::EMPTY, B4::EMPTY), |(l, r), (j, x)| {
-            if j < i {
-                (l.union(x), r)
-            } else {
-                (l, r.union(x))
-            }
-        });
+    // A sampled reference on each side guarantees both sides are non-empty.
     let split = i as f32;
-    let (k, lc, rc) = partition_bounds(refs, |c| binner.bins(c)[a] < split);
+    let (k, [lb, lc, rb, rc]) = partition_bounds(refs, |c| binner.bins(c)[a] < split);
     Split::At(k, Some([(lb.aabb(), lc.aabb()), (rb.aabb(), rc.aabb())]))
 }
 
-/// [`partition`] by centroid, also returning both sides' centroid boxes.
-fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, B4, B4) {
-    let (mut lc, mut rc) = (B4::EMPTY, B4::EMPTY);
+/// [`partition`] by centroid, also returning both sides' boxes and
+/// centroid boxes: `[left box, left centroids, right box, right centroids]`.
+fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, [B4; 4]) {
+    let mut acc = [B4::EMPTY; 4];
+    let add = |acc: &mut [B4; 4], side: usize, r: &Ref, c: Vec4| {
+        acc[2 * side] = acc[2 * side].grow(r.min, r.max);
+        acc[2 * side + 1] = acc[2 * side + 1].grow_point(c);
+    };
     let mut i = 0;
     let mut j = refs.len();
     loop {
@@ -468,7 +473,7 @@ fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, B4
             if !left(c) {
                 break;
             }
-            lc = lc.grow_point(c);
+            add(&mut acc, 0, &refs[i], c);
             i += 1;
         }
         while i < j {
@@ -476,16 +481,16 @@ fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, B4
             if left(c) {
                 break;
             }
-            rc = rc.grow_point(c);
+            add(&mut acc, 1, &refs[j - 1], c);
             j -= 1;
         }
         if i >= j {
-            return (i, lc, rc);
+            return (i, acc);
         }
         // refs[i] belongs right and refs[j - 1] left: swap and account.
-        lc = lc.grow_point(refs[j - 1].centroid4());
-        rc = rc.grow_point(refs[i].centroid4());
         refs.swap(i, j - 1);
+        add(&mut acc, 0, &refs[i], refs[i].centroid4());
+        add(&mut acc, 1, &refs[j - 1], refs[j - 1].centroid4());
         i += 1;
         j -= 1;
     }
