@@ -118,6 +118,8 @@ pub struct FlatScene {
     shaders: Vec<Arc<Shader>>,
     /// World-space `f64` bounds of each primitive.
     bounds: Vec<(DVec3, DVec3)>,
+    /// Primitives dropped for non-finite coordinates.
+    dropped: usize,
 }
 
 /// A leaf whose transform cannot be inverted (a zero scale).
@@ -151,14 +153,29 @@ impl FlatScene {
             transforms: Vec::new(),
             shaders: Vec::new(),
             bounds: Vec::new(),
+            dropped: 0,
         }
     }
 
-    /// Computes the primitives' bounds once all leaves are in.
+    /// Computes the primitives' bounds once all leaves are in, dropping
+    /// primitives whose bounds are not finite (NaN or infinite vertices,
+    /// overflowing transforms): no exact test could hit them reliably and
+    /// they would poison every box above them.
     fn finish(&mut self) {
-        self.bounds = (0..self.primitives.len())
+        let bounds: Vec<_> = (0..self.primitives.len())
             .map(|i| self.primitive_bounds(i))
             .collect();
+        let finite = |b: &(DVec3, DVec3)| b.0.is_finite() && b.1.is_finite();
+        let before = self.primitives.len();
+        let mut keep = bounds.iter().map(finite);
+        self.primitives.retain(|_| keep.next().unwrap_or(false));
+        self.bounds = bounds.into_iter().filter(finite).collect();
+        self.dropped = before - self.primitives.len();
+    }
+
+    /// How many primitives were dropped for non-finite coordinates.
+    pub fn dropped(&self) -> usize {
+        self.dropped
     }
 
     /// The variant whose conventions the intersection code follows.
@@ -354,6 +371,10 @@ impl FlatScene {
                 let (_, p) = self.triangle(mesh, index);
                 // Transform the vertices themselves: tighter than the corners of their box.
                 let p = p.map(|v| xf.map_or(v, |t| t.point_to_world(v)));
+                if !p.iter().all(|v| v.is_finite()) {
+                    // min/max would quietly skip a NaN; mark the box unusable.
+                    return (DVec3::NAN, DVec3::NAN);
+                }
                 return (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
             }
         };
@@ -602,6 +623,11 @@ impl Flattened {
     /// Unique primitives (world plus one copy of each shared geometry).
     pub fn unique_primitives(&self) -> u64 {
         self.world.len() as u64 + self.shared.iter().map(|s| s.len() as u64).sum::<u64>()
+    }
+
+    /// Primitives dropped for non-finite coordinates (world and shared).
+    pub fn dropped_primitives(&self) -> usize {
+        self.world.dropped() + self.shared.iter().map(FlatScene::dropped).sum::<usize>()
     }
 
     /// Primitives as placed (world plus each placement's geometry).

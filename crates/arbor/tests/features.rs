@@ -181,3 +181,61 @@ fn glass_2015_renders_finite_colours() {
         }
     }
 }
+
+#[test]
+fn deep_nesting_is_a_clean_error_not_a_stack_overflow() {
+    let depth = 20_000;
+    let mut xml = String::from("<scene><camera/><image>2 2</image>");
+    for _ in 0..depth {
+        xml.push_str(r#"<surface type="Group">"#);
+    }
+    xml.push_str(r#"<surface type="Sphere"/>"#);
+    for _ in 0..depth {
+        xml.push_str("</surface>");
+    }
+    xml.push_str("</scene>");
+    let err = parse_scene(&xml, Path::new("deep.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.starts_with("deep.xml:1:"), "{err}");
+    assert!(err.contains("nested"), "{err}");
+}
+
+#[test]
+fn non_finite_vertices_are_dropped_not_traced() {
+    use arbor::mesh::MeshData;
+    use arbor::surface::{MeshSurface, Surface};
+    use glam::Vec3;
+    let mut scene = load("<scene><camera/><image>2 2</image></scene>");
+    let data = MeshData {
+        positions: vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(f32::NAN, 0.0, 0.0),
+            Vec3::new(0.5, 0.5, 0.0),
+        ],
+        normals: None,
+        uvs: None,
+        // A good triangle, one with a NaN corner, and a zero-area one (kept,
+        // but never hit: Cramer's determinant is zero).
+        triangles: vec![[0, 1, 2], [0, 3, 2], [0, 4, 4]],
+    };
+    scene.surfaces.push(Surface::Mesh(MeshSurface {
+        data: std::sync::Arc::new(data),
+        shader: std::sync::Arc::new(arbor::shader::Shader::default_lambertian()),
+    }));
+    let flat = FlatScene::new(&scene).unwrap();
+    assert_eq!((flat.len(), flat.dropped()), (2, 1));
+    let tracer = Tracer::new(flat, AccelKind::DEFAULT);
+    let hit = tracer.closest(
+        DVec3::new(0.25, 0.25, 1.0),
+        DVec3::NEG_Z,
+        0.0,
+        f64::INFINITY,
+    );
+    assert!((hit.unwrap().t - 1.0).abs() < 1e-12);
+    assert!(tracer
+        .closest(DVec3::new(2.0, 2.0, 1.0), DVec3::NEG_Z, 0.0, f64::INFINITY)
+        .is_none());
+}

@@ -39,9 +39,13 @@ impl Region {
     }
 }
 
-/// The render was cancelled before it finished.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Cancelled;
+/// The render was cancelled before it finished; `partial` holds the tiles
+/// that were done (the rest is black).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cancelled {
+    /// What was rendered before the cancellation.
+    pub partial: Film,
+}
 
 /// The tiles covering a `width` x `height` image, row by row.
 pub fn tiles(width: u32, height: u32) -> Vec<Region> {
@@ -144,8 +148,8 @@ pub fn render_region(
         })
         .collect();
     let mut film = Film::new(region.x1 - region.x0, region.y1 - region.y0);
-    for entry in done {
-        let (tile, pixels) = entry.ok_or(Cancelled)?;
+    let complete = done.iter().all(Option::is_some);
+    for (tile, pixels) in done.into_iter().flatten() {
         let mut k = 0;
         for row in tile.y0..tile.y1 {
             for col in tile.x0..tile.x1 {
@@ -154,7 +158,11 @@ pub fn render_region(
             }
         }
     }
-    Ok(film)
+    if complete {
+        Ok(film)
+    } else {
+        Err(Cancelled { partial: film })
+    }
 }
 
 /// Renders the whole image.
