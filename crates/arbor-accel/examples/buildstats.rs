@@ -2,7 +2,7 @@
 //! prints build time, shape, SAH cost and ray throughput.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example buildstats -- [--tris N] [--msh FILE] [--rays R] [--kinds a,b,...]
+//! cargo run --release -p arbor-accel --example buildstats -- [--tris N] [--msh FILE] [--rays R] [--kinds a,b,...] [--lambda L]
 //! ```
 //!
 //! `--msh` reads the Cornell `.msh` format (point count, triangle count,
@@ -11,7 +11,9 @@
 
 use std::time::Instant;
 
-use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
+use arbor_accel::{
+    Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray, TriangleMesh, Vec3,
+};
 use rayon::prelude::*;
 
 /// A bumpy torus of about `tris` triangles.
@@ -114,6 +116,10 @@ fn main() {
             .filter(|k| *k != AccelKind::List)
             .collect(),
     };
+    let mut params = AccelParams::default();
+    if let Some(l) = arg("--lambda") {
+        params.grid.lambda = l.parse().unwrap();
+    }
     let rays = rays(&mesh, nrays);
     println!(
         "{} triangles, {} rays, {} threads",
@@ -127,7 +133,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for kind in kinds {
         let (t, cpu) = (Instant::now(), cpu_seconds());
-        let accel = Accel::build(kind, &mesh);
+        let accel = Accel::build_with(kind, &mesh, &params);
         let build = t.elapsed().as_secs_f64();
         let build_cpu = cpu_seconds() - cpu;
         let s = accel.stats();

@@ -70,8 +70,9 @@ impl RayShear {
 /// them: each edge function depends only on the edge's two vertices and is
 /// exactly antisymmetric in them. Beyond the paper's exact-zero fallback, an
 /// edge function whose magnitude is within its `f32` error bound
-/// (`2^-16 s^2`, with `s` the largest L1 distance of a vertex from the
-/// origin) is recomputed in `f64`, so a reported hit really lies on the
+/// (`2^-18 m s`, with `s` the largest L1 distance of a vertex from the
+/// origin and `m` the largest sheared vertex coordinate) is recomputed in
+/// `f64`, so a reported hit really lies on the
 /// triangle (to about `2^-48 s`), not merely near it; the distance `t` comes
 /// from the triangle's plane in `f64`. Both matter to acceleration
 /// structures, which can only promise to offer a primitive where it really
@@ -99,15 +100,24 @@ pub fn intersect_triangle_sheared(
     let u = cx * by - cy * bx;
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
-    // Each sheared coordinate is off by at most ~5 ulp of `scale`, so an
-    // edge function is off by at most ~64 ulp of scale^2; 2^-16 leaves a
-    // factor 4 of margin.
+    // Error bound of the edge functions: with `s` the largest L1 norm of a
+    // vertex relative to the origin and `m` the largest sheared coordinate,
+    // each sheared coordinate is off by at most 5u s (u = 2^-24), so an edge
+    // function is off by at most 4 m (5u s) + 4u m^2 <= 28u m s. Testing
+    // against 64u m s = 2^-18 m s leaves a factor two of margin.
     let scale = a
         .abs()
         .element_sum()
         .max(b.abs().element_sum())
         .max(c.abs().element_sum());
-    let bound = scale * scale * (1.0 / 65536.0);
+    let m = ax
+        .abs()
+        .max(ay.abs())
+        .max(bx.abs())
+        .max(by.abs())
+        .max(cx.abs())
+        .max(cy.abs());
+    let bound = m * scale * (1.0 / 262_144.0);
     let smallest = u.abs().min(v.abs()).min(w.abs());
     let (_, v, w) = if smallest > bound {
         // Signs are certain.

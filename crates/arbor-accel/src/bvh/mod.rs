@@ -10,8 +10,9 @@ mod ploc;
 mod sweep;
 mod topdown;
 
-use glam::{Vec3, Vec4};
+use glam::{Vec3, Vec3A, Vec4};
 
+use crate::aabb::SLAB_TFAR_SCALE;
 use crate::util::{prepare_map, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
@@ -248,14 +249,39 @@ impl Bvh {
     }
 }
 
-/// The ray used for box tests: `tmax` widened by the slab test's rounding
-/// bound, so that a box entered at the current closest hit (up to the
-/// rounding of the entry distance) is never culled.
-#[inline(always)]
-fn cull_ray(ray: &Ray) -> Ray {
-    Ray {
-        tmax: widen_up(ray.tmax),
-        ..*ray
+/// A ray prepared for node tests in SIMD lanes.
+#[derive(Clone, Copy)]
+struct RayBox {
+    origin: Vec3A,
+    inv_dir: Vec3A,
+    tmin: f32,
+}
+
+impl RayBox {
+    fn new(ray: &Ray) -> Self {
+        RayBox {
+            origin: ray.origin.into(),
+            inv_dir: ray.inv_dir().into(),
+            tmin: ray.tmin,
+        }
+    }
+
+    /// The entry distance into `node`'s box if the ray (clipped to
+    /// `[tmin, tmax]`) touches it. The same arithmetic, lane for lane, as
+    /// [`Aabb::intersect`], so it inherits that test's conservative bound.
+    /// Callers pass `tmax` widened by that bound, so that a box entered at
+    /// the current closest hit (up to the rounding of the entry distance) is
+    /// never culled.
+    #[inline(always)]
+    fn hit(&self, node: &BvhNode, tmax: f32) -> Option<f32> {
+        let t0 = (Vec3A::from(node.min) - self.origin) * self.inv_dir;
+        let t1 = (Vec3A::from(node.max) - self.origin) * self.inv_dir;
+        let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
+        let near = Vec3A::select(on_plane, Vec3A::NEG_INFINITY, t0.min(t1));
+        let far = Vec3A::select(on_plane, Vec3A::INFINITY, t0.max(t1));
+        let enter = near.max_element().max(self.tmin);
+        let exit = (far.min_element() * SLAB_TFAR_SCALE).min(tmax);
+        (enter <= exit).then_some(enter)
     }
 }
 
@@ -275,8 +301,8 @@ impl Accelerator for Bvh {
         let Some(root) = self.nodes.first() else {
             return;
         };
-        let inv = ray.inv_dir();
-        if root.aabb().intersect(&cull_ray(&ray), inv).is_none() {
+        let rb = RayBox::new(&ray);
+        if rb.hit(root, widen_up(ray.tmax)).is_none() {
             return;
         }
         let mut stack = [(0u32, 0f32); STACK_SIZE];
@@ -295,11 +321,11 @@ impl Accelerator for Bvh {
                 }
             } else {
                 let (l, r) = (node + 1, n.offset as usize);
-                let wide = cull_ray(&ray);
-                let hl = self.nodes[l].aabb().intersect(&wide, inv);
-                let hr = self.nodes[r].aabb().intersect(&wide, inv);
+                let wide = widen_up(ray.tmax);
+                let hl = rb.hit(&self.nodes[l], wide);
+                let hr = rb.hit(&self.nodes[r], wide);
                 match (hl, hr) {
-                    (Some((tl, _)), Some((tr, _))) => {
+                    (Some(tl), Some(tr)) => {
                         // Nearest child first; the other waits with its entry
                         // distance so it can be culled once a closer hit is known.
                         let (near, far, tfar) = if tl <= tr { (l, r, tr) } else { (r, l, tl) };
@@ -347,9 +373,9 @@ impl Accelerator for Bvh {
         let Some(root) = self.nodes.first() else {
             return false;
         };
-        let inv = ray.inv_dir();
-        let wide = cull_ray(ray);
-        if root.aabb().intersect(&wide, inv).is_none() {
+        let rb = RayBox::new(ray);
+        let wide = widen_up(ray.tmax);
+        if rb.hit(root, wide).is_none() {
             return false;
         }
         let mut stack = [0u32; STACK_SIZE];
@@ -368,8 +394,8 @@ impl Accelerator for Bvh {
                 }
             } else {
                 let (l, r) = (node + 1, n.offset as usize);
-                let hl = self.nodes[l].aabb().intersect(&wide, inv).is_some();
-                let hr = self.nodes[r].aabb().intersect(&wide, inv).is_some();
+                let hl = rb.hit(&self.nodes[l], wide).is_some();
+                let hr = rb.hit(&self.nodes[r], wide).is_some();
                 match (hl, hr) {
                     (true, true) => {
                         stack[sp] = r as u32;
