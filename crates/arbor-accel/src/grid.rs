@@ -190,7 +190,12 @@ impl Grid {
         let Some((t0, _)) = self.bounds.intersect(&wide, inv) else {
             return;
         };
-        let p = ray.at(t0);
+        let mut p = ray.at(t0);
+        if !p.is_finite() {
+            // Only with a zero direction (t0 = -inf times 0): the ray stays
+            // at its origin.
+            p = ray.origin;
+        }
         let mut cell = [0usize; 3];
         let mut step = [0isize; 3];
         let mut next = [f32::INFINITY; 3];
