@@ -427,3 +427,50 @@ fn info_reports_hierarchy_and_instancing() {
     let out = arbor(case.path(), &["info", "missing.xml"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The committed generator of the instancing stress scene still produces a
+/// scene that arbor loads, with the placement counts it promises.
+#[test]
+fn bunny_field_generator_makes_a_nested_instanced_scene() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let shared = std::env::var_os("ARBOR_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join("../shared"));
+    let mesh = shared.join("scenes/cornell-2010/TEST_B/bunny10k.msh");
+    if !mesh.exists() {
+        assert_ne!(
+            std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref(),
+            Ok("1"),
+            "missing {}",
+            mesh.display()
+        );
+        eprintln!("skipped: {} not found", mesh.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let status = Command::new("python3")
+        .arg(root.join("scripts/bunny_field.py"))
+        .args([
+            "--per-level",
+            "4",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-o",
+            "f.xml",
+            "--mesh",
+        ])
+        .arg(&mesh)
+        .current_dir(dir.path())
+        .status()
+        .expect("python3");
+    assert!(status.success());
+    let out = arbor(dir.path(), &["info", "f.xml", "--depth", "2"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("placements  64 of shared geometry"), "{text}");
+    // 4^3 bunnies of 10,000 triangles, plus the ground (a 2015 box: 12 triangles).
+    assert!(text.contains("as placed   640012 primitives"), "{text}");
+    let out = arbor(dir.path(), &["render", "f.xml", "-q"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+}
