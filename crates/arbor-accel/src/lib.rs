@@ -11,7 +11,17 @@
 //! differ only in speed. Traversal runs in `f32`, conservatively: a box test
 //! never rejects a box that the ray touches in exact arithmetic (see
 //! [`Aabb::intersect`]), so a caller whose exact test runs in `f64` loses no hit
-//! as long as its primitive boxes enclose the primitives.
+//! as long as its primitive boxes (and [`Primitives::clipped_bounds`]) enclose
+//! what its test can hit, i.e. the test reports hits only where the primitive
+//! really is ([`intersect_triangle`] guarantees this for triangles).
+//!
+//! Structures ([`AccelKind`] names them): [`List`] (brute force), [`Bvh`] with
+//! five builders ([`BvhBuilder`]), the uniform [`Grid`] and the SAH [`KdTree`];
+//! [`Accel`] holds any of them. Bounding volumes: [`Aabb`], [`BoundingSphere`],
+//! [`Obb`]. The design, error bounds, constants and measurements are written up
+//! in `docs/acceleration.md`.
+
+#![warn(missing_docs)]
 
 mod aabb;
 mod accel;
