@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use crate::film::Film;
 use crate::scene::{Scene, Variant};
+use crate::stats::{NoStats, RayStats};
 use crate::tracer::Tracer;
 
 mod shade;
@@ -63,6 +64,32 @@ pub fn tiles(width: u32, height: u32) -> Vec<Region> {
     out
 }
 
+/// The image-plane coordinates `(u, v)` of sample `(a, b)` of pixel
+/// `(column, row)` (row 0 at the top), in the variant's convention; shared by
+/// the renderer and the cost heatmap so both see the same camera rays.
+pub fn sample_uv(scene: &Scene, column: u32, row: u32, a: u32, b: u32) -> (f64, f64) {
+    let s = scene.samples_per_side;
+    let (w, h) = (scene.width, scene.height);
+    match scene.variant {
+        Variant::Cornell2010 => {
+            let x = (column * s + a) as f64;
+            let y = ((h - 1 - row) * s + b) as f64;
+            (
+                (x + 0.5) / (w * s) as f64 - 0.5,
+                (y + 0.5) / (h * s) as f64 - 0.5,
+            )
+        }
+        Variant::Cornell2015 => {
+            let i = column as f64;
+            let j = (h - 1 - row) as f64;
+            let inv = 1.0 / s as f64;
+            let u0 = (i + (a as f64 + 0.5) * inv) / w as f64;
+            let v0 = (j + (b as f64 + 0.5) * inv) / h as f64;
+            (2.0 * u0 - 1.0, 2.0 * v0 - 1.0)
+        }
+    }
+}
+
 /// The linear radiance of pixel `(column, row)` (row 0 at the top): the
 /// average of its `s`x`s` samples, times the exposure.
 pub fn render_pixel(
@@ -72,31 +99,25 @@ pub fn render_pixel(
     column: u32,
     row: u32,
 ) -> DVec3 {
+    render_pixel_with(scene, integrator, camera, column, row, &mut NoStats)
+}
+
+/// [`render_pixel`], recording every ray traced into `stats`.
+pub fn render_pixel_with<S: RayStats>(
+    scene: &Scene,
+    integrator: &Integrator,
+    camera: &crate::camera::PreparedCamera,
+    column: u32,
+    row: u32,
+    stats: &mut S,
+) -> DVec3 {
     let s = scene.samples_per_side;
-    let (w, h) = (scene.width, scene.height);
-    let i = column as f64;
-    let j = (h - 1 - row) as f64;
     let mut sum = DVec3::ZERO;
     for a in 0..s {
         for b in 0..s {
-            let (u, v) = match scene.variant {
-                Variant::Cornell2010 => {
-                    let x = (column * s + a) as f64;
-                    let y = ((h - 1 - row) * s + b) as f64;
-                    (
-                        (x + 0.5) / (w * s) as f64 - 0.5,
-                        (y + 0.5) / (h * s) as f64 - 0.5,
-                    )
-                }
-                Variant::Cornell2015 => {
-                    let inv = 1.0 / s as f64;
-                    let u0 = (i + (a as f64 + 0.5) * inv) / w as f64;
-                    let v0 = (j + (b as f64 + 0.5) * inv) / h as f64;
-                    (2.0 * u0 - 1.0, 2.0 * v0 - 1.0)
-                }
-            };
+            let (u, v) = sample_uv(scene, column, row, a, b);
             let (o, d) = camera.ray(u, v);
-            sum += integrator.camera_ray(o, d);
+            sum += integrator.camera_ray_with(o, d, stats);
         }
     }
     let n = (s * s) as f64;
@@ -116,6 +137,19 @@ pub fn render_region(
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<Film, Cancelled> {
+    render_region_with::<NoStats>(scene, tracer, region, progress, cancel).map(|(film, _)| film)
+}
+
+/// [`render_region`], also returning the statistics of every ray traced,
+/// gathered per tile into an `S` and merged. With [`NoStats`] this is exactly
+/// [`render_region`]; the image never depends on `S`.
+pub fn render_region_with<S: RayStats>(
+    scene: &Scene,
+    tracer: &Tracer,
+    region: Region,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(Film, S), Cancelled> {
     let camera = scene.camera.prepare();
     let integrator = Integrator::new(scene, tracer);
     let all = tiles(scene.width, scene.height);
@@ -131,25 +165,35 @@ pub fn render_region(
             (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
         })
         .collect();
-    let done: Vec<Option<(Region, Vec<DVec3>)>> = mine
+    let done: Vec<Option<(Region, Vec<DVec3>, S)>> = mine
         .par_iter()
         .map(|&tile| {
             let mut pixels = Vec::with_capacity(tile.area() as usize);
+            let mut stats = S::default();
             for row in tile.y0..tile.y1 {
                 if cancel.load(Ordering::Relaxed) {
                     return None;
                 }
                 for col in tile.x0..tile.x1 {
-                    pixels.push(render_pixel(scene, &integrator, &camera, col, row));
+                    pixels.push(render_pixel_with(
+                        scene,
+                        &integrator,
+                        &camera,
+                        col,
+                        row,
+                        &mut stats,
+                    ));
                 }
             }
             progress(tile.area());
-            Some((tile, pixels))
+            Some((tile, pixels, stats))
         })
         .collect();
     let mut film = Film::new(region.x1 - region.x0, region.y1 - region.y0);
     let complete = done.iter().all(Option::is_some);
-    for (tile, pixels) in done.into_iter().flatten() {
+    let mut total = S::default();
+    for (tile, pixels, stats) in done.into_iter().flatten() {
+        total.merge(stats);
         let mut k = 0;
         for row in tile.y0..tile.y1 {
             for col in tile.x0..tile.x1 {
@@ -159,7 +203,7 @@ pub fn render_region(
         }
     }
     if complete {
-        Ok(film)
+        Ok((film, total))
     } else {
         Err(Cancelled { partial: film })
     }

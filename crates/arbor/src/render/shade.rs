@@ -8,6 +8,7 @@ use crate::flatten::Hit;
 use crate::light::Light;
 use crate::scene::{Scene, Variant};
 use crate::shader::{fresnel_exact, fresnel_exact_2015, schlick, schlick_r0, Fresnel, Shader};
+use crate::stats::{NoStats, RayKind, RayStats};
 use crate::tracer::Tracer;
 
 /// Epsilon on the ray parameter of secondary and shadow rays (spec §4).
@@ -27,30 +28,89 @@ impl<'a> Integrator<'a> {
 
     /// The radiance arriving along a camera ray.
     pub fn camera_ray(&self, o: DVec3, d: DVec3) -> DVec3 {
+        self.camera_ray_with(o, d, &mut NoStats)
+    }
+
+    /// [`Integrator::camera_ray`], recording every ray it traces (camera,
+    /// shadow, reflection, refraction) into `stats`. Monomorphised per sink,
+    /// so [`NoStats`] costs nothing.
+    pub fn camera_ray_with<S: RayStats>(&self, o: DVec3, d: DVec3, stats: &mut S) -> DVec3 {
         match self.scene.variant {
-            Variant::Cornell2010 => self.trace_2010(o, d, 0.0, 1, 1.0),
-            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, 1),
+            Variant::Cornell2010 => self.trace_2010(o, d, 0.0, 1, 1.0, RayKind::Camera, stats),
+            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, 1, RayKind::Camera, stats),
         }
     }
 
+    /// The nearest hit, with the traversal work recorded as a ray of `kind`.
+    #[inline(always)]
+    fn closest<S: RayStats>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        kind: RayKind,
+        stats: &mut S,
+    ) -> Option<Hit<'a>> {
+        let mut counts = S::Counters::default();
+        let hit = self
+            .tracer
+            .closest_counted(o, d, tmin, f64::INFINITY, &mut counts);
+        stats.record(kind, counts);
+        hit
+    }
+
+    /// Whether a shadow ray is blocked, recorded as a shadow ray.
+    #[inline(always)]
+    fn occluded<S: RayStats>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        stats: &mut S,
+    ) -> bool {
+        let mut counts = S::Counters::default();
+        let blocked = self.tracer.occluded_counted(o, d, tmin, tmax, &mut counts);
+        stats.record(RayKind::Shadow, counts);
+        blocked
+    }
+
     /// 2010: black past depth 10 or below 1% contribution; misses are black.
-    fn trace_2010(&self, o: DVec3, d: DVec3, tmin: f64, depth: u32, contrib: f64) -> DVec3 {
+    #[allow(clippy::too_many_arguments)]
+    fn trace_2010<S: RayStats>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        depth: u32,
+        contrib: f64,
+        kind: RayKind,
+        stats: &mut S,
+    ) -> DVec3 {
         if contrib < 0.01 || depth > 10 {
             return DVec3::ZERO;
         }
-        match self.tracer.closest(o, d, tmin, f64::INFINITY) {
-            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, contrib),
+        match self.closest(o, d, tmin, kind, stats) {
+            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, contrib, stats),
             None => DVec3::ZERO,
         }
     }
 
     /// 2015: black past depth 12; misses see the cube map or the background.
-    fn trace_2015(&self, o: DVec3, d: DVec3, tmin: f64, depth: u32) -> DVec3 {
+    fn trace_2015<S: RayStats>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        depth: u32,
+        kind: RayKind,
+        stats: &mut S,
+    ) -> DVec3 {
         if depth > 12 {
             return DVec3::ZERO;
         }
-        match self.tracer.closest(o, d, tmin, f64::INFINITY) {
-            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, 1.0),
+        match self.closest(o, d, tmin, kind, stats) {
+            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, 1.0, stats),
             None => match &self.scene.cubemap {
                 Some(map) => map.lookup(d),
                 None => self.scene.background,
@@ -59,15 +119,24 @@ impl<'a> Integrator<'a> {
     }
 
     /// A secondary ray from a hit point, in the variant's manner.
-    fn trace_secondary(&self, o: DVec3, d: DVec3, depth: u32, contrib: f64) -> DVec3 {
+    fn trace_secondary<S: RayStats>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        depth: u32,
+        contrib: f64,
+        kind: RayKind,
+        stats: &mut S,
+    ) -> DVec3 {
         match self.scene.variant {
-            Variant::Cornell2010 => self.trace_2010(o, d, T_EPSILON, depth, contrib),
-            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, depth),
+            Variant::Cornell2010 => self.trace_2010(o, d, T_EPSILON, depth, contrib, kind, stats),
+            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, depth, kind, stats),
         }
     }
 
     /// The colour of `hit` under `shader`, seen from the ray `o + t d`.
-    fn shade(
+    #[allow(clippy::too_many_arguments)]
+    fn shade<S: RayStats>(
         &self,
         hit: &Hit,
         shader: &Shader,
@@ -75,6 +144,7 @@ impl<'a> Integrator<'a> {
         d: DVec3,
         depth: u32,
         contrib: f64,
+        stats: &mut S,
     ) -> DVec3 {
         let is2015 = self.scene.variant == Variant::Cornell2015;
         let x = hit.point;
@@ -87,7 +157,7 @@ impl<'a> Integrator<'a> {
         match shader {
             Shader::Lambertian { diffuse, texture } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                self.lights(x, |l, e| {
+                self.lights(x, stats, |l, e| {
                     let nl = n.dot(l);
                     if nl > 0.0 {
                         kd * e * nl
@@ -103,7 +173,7 @@ impl<'a> Integrator<'a> {
                 texture,
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                self.lights(x, |l, e| {
+                self.lights(x, stats, |l, e| {
                     let nl = n.dot(l);
                     let h = (l + v).normalize();
                     let nh = n.dot(h);
@@ -130,11 +200,13 @@ impl<'a> Integrator<'a> {
                 substrate,
                 fresnel,
             } => {
-                let below = |this: &Self| this.shade(hit, substrate, o, d, depth, contrib);
                 if is2015 {
                     let f = fresnel_exact_2015(n.dot(v), *eta);
                     let r = 2.0 * v.dot(n) * n - v;
-                    (1.0 - f) * below(self) + f * self.trace_secondary(x, r, depth + 1, 1.0)
+                    let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                    let reflected =
+                        self.trace_secondary(x, r, depth + 1, 1.0, RayKind::Reflection, stats);
+                    (1.0 - f) * below + f * reflected
                 } else {
                     let r = (2.0 * n.dot(v) * n - v).normalize();
                     let c = r.dot(n);
@@ -147,20 +219,28 @@ impl<'a> Integrator<'a> {
                         }
                     };
                     let reflected = if f > 0.0 {
-                        self.trace_secondary(x, r, depth + 1, contrib * f)
+                        self.trace_secondary(
+                            x,
+                            r,
+                            depth + 1,
+                            contrib * f,
+                            RayKind::Reflection,
+                            stats,
+                        )
                     } else {
                         DVec3::ZERO
                     };
-                    (1.0 - f) * below(self) + f * reflected
+                    let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                    (1.0 - f) * below + f * reflected
                 }
             }
             Shader::Glass {
                 refractive_index: eta,
             } => {
                 if is2015 {
-                    self.glass_2015(x, n, v, *eta, depth)
+                    self.glass_2015(x, n, v, *eta, depth, stats)
                 } else {
-                    self.glass_2010(x, n, v, *eta, depth, contrib)
+                    self.glass_2010(x, n, v, *eta, depth, contrib, stats)
                 }
             }
             Shader::RgbNormals => (n + DVec3::ONE) / 2.0,
@@ -173,7 +253,7 @@ impl<'a> Integrator<'a> {
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
                 let m2 = roughness * roughness;
-                self.lights(x, |l, e| {
+                self.lights(x, stats, |l, e| {
                     let nl = n.dot(l);
                     let nv = n.dot(v);
                     if nl <= 0.0 || nv <= 0.0 {
@@ -196,7 +276,8 @@ impl<'a> Integrator<'a> {
 
     /// 2010 glass (spec §6.4): Schlick with the air-side cosine; the
     /// refracted ray keeps the depth.
-    fn glass_2010(
+    #[allow(clippy::too_many_arguments)]
+    fn glass_2010<S: RayStats>(
         &self,
         x: DVec3,
         n: DVec3,
@@ -204,6 +285,7 @@ impl<'a> Integrator<'a> {
         eta: f64,
         depth: u32,
         contrib: f64,
+        stats: &mut S,
     ) -> DVec3 {
         let d = -v;
         let entering = d.dot(n) < 0.0;
@@ -217,19 +299,36 @@ impl<'a> Integrator<'a> {
         let disc = 1.0 - k * k * (1.0 - ci * ci);
         let r_dir = (d + 2.0 * ci * nn).normalize();
         if disc < 0.0 {
-            return self.trace_secondary(x, r_dir, depth + 1, contrib);
+            return self.trace_secondary(x, r_dir, depth + 1, contrib, RayKind::Reflection, stats);
         }
         let ct = disc.sqrt();
         let t_dir = (k * (d + ci * nn) - ct * nn).normalize();
         let r0 = ((n2 - n1) / (n2 + n1)).powi(2);
         let c = if entering { ci } else { ct };
         let r = schlick_r0(c, r0);
-        r * self.trace_secondary(x, r_dir, depth + 1, contrib * r)
-            + (1.0 - r) * self.trace_secondary(x, t_dir, depth, contrib * (1.0 - r))
+        let reflected =
+            self.trace_secondary(x, r_dir, depth + 1, contrib * r, RayKind::Reflection, stats);
+        let refracted = self.trace_secondary(
+            x,
+            t_dir,
+            depth,
+            contrib * (1.0 - r),
+            RayKind::Refraction,
+            stats,
+        );
+        r * reflected + (1.0 - r) * refracted
     }
 
     /// 2015 glass (spec §6.4), with total internal reflection as `R = 1`.
-    fn glass_2015(&self, x: DVec3, n: DVec3, v: DVec3, eta: f64, depth: u32) -> DVec3 {
+    fn glass_2015<S: RayStats>(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        v: DVec3,
+        eta: f64,
+        depth: u32,
+        stats: &mut S,
+    ) -> DVec3 {
         let cos = v.dot(n);
         let (eta, nn) = if cos >= 0.0 {
             (eta, n)
@@ -241,22 +340,29 @@ impl<'a> Integrator<'a> {
         let reflected = if theta1 == 0.0 {
             DVec3::ZERO
         } else {
-            self.trace_secondary(x, 2.0 * v.dot(nn) * nn - v, depth + 1, 1.0)
+            let r = 2.0 * v.dot(nn) * nn - v;
+            self.trace_secondary(x, r, depth + 1, 1.0, RayKind::Reflection, stats)
         };
         if r >= 1.0 {
             return reflected;
         }
         let theta2 = (theta1.sin() / eta).asin();
         let t = (-v + nn * theta1.cos()) / eta - nn * theta2.cos();
-        r * reflected + (1.0 - r) * self.trace_secondary(x, t, depth + 1, 1.0)
+        let refracted = self.trace_secondary(x, t, depth + 1, 1.0, RayKind::Refraction, stats);
+        r * reflected + (1.0 - r) * refracted
     }
 
     /// Sums `f(l, E)` over the lights that reach `x` unshadowed, where `l` is
     /// the unit direction to the light and `E` its irradiance factor.
-    fn lights(&self, x: DVec3, mut f: impl FnMut(DVec3, DVec3) -> DVec3) -> DVec3 {
+    fn lights<S: RayStats>(
+        &self,
+        x: DVec3,
+        stats: &mut S,
+        mut f: impl FnMut(DVec3, DVec3) -> DVec3,
+    ) -> DVec3 {
         let mut sum = DVec3::ZERO;
         for light in &self.scene.lights {
-            if let Some((l, e)) = self.light_at(light, x) {
+            if let Some((l, e)) = self.light_at(light, x, stats) {
                 sum += f(l, e);
             }
         }
@@ -265,7 +371,12 @@ impl<'a> Integrator<'a> {
 
     /// Direction to and irradiance factor of `light` at `x`, or `None` when
     /// something lies in between (spec §4 shadow rays, §6 falloff).
-    fn light_at(&self, light: &Light, x: DVec3) -> Option<(DVec3, DVec3)> {
+    fn light_at<S: RayStats>(
+        &self,
+        light: &Light,
+        x: DVec3,
+        stats: &mut S,
+    ) -> Option<(DVec3, DVec3)> {
         match (self.scene.variant, light) {
             (
                 Variant::Cornell2010,
@@ -275,7 +386,7 @@ impl<'a> Integrator<'a> {
                 },
             ) => {
                 let to_light = *position - x;
-                (!self.tracer.occluded(x, to_light, T_EPSILON, 1.0))
+                (!self.occluded(x, to_light, T_EPSILON, 1.0, stats))
                     .then(|| (to_light.normalize(), *intensity))
             }
             (
@@ -288,7 +399,7 @@ impl<'a> Integrator<'a> {
                 let to_light = *position - x;
                 let dist = to_light.length();
                 let l = to_light.normalize();
-                (!self.tracer.occluded(x, l, T_EPSILON, dist))
+                (!self.occluded(x, l, T_EPSILON, dist, stats))
                     .then(|| (l, *intensity / (dist * dist)))
             }
             (
@@ -299,7 +410,7 @@ impl<'a> Integrator<'a> {
                 },
             ) => {
                 let l = direction.normalize();
-                (!self.tracer.occluded(x, l, T_EPSILON, f64::MAX)).then_some((l, *intensity))
+                (!self.occluded(x, l, T_EPSILON, f64::MAX, stats)).then_some((l, *intensity))
             }
         }
     }
