@@ -37,7 +37,7 @@ mod sphere;
 mod triangle;
 mod util;
 
-pub use aabb::Aabb;
+pub use aabb::{Aabb, SLAB_TFAR_SCALE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
 pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams};
 pub use counters::{Counters, NoCounters, RayCounts};
