@@ -19,7 +19,8 @@ use crate::InputError;
 /// Arguments of `arbor render`.
 #[derive(Args, Debug)]
 pub struct RenderArgs {
-    /// The scene file (Cornell XML). Without one, the built-in default scene.
+    /// The scene file (Cornell XML) or a model (.obj, .ply, .stl, .gltf, .glb,
+    /// framed automatically). Without one, the built-in default scene.
     pub scene: Option<PathBuf>,
     /// Output image: `.png` (8-bit) or `.exr` (linear float). Default: the
     /// scene's name with `.png`, in the current directory.
@@ -52,7 +53,7 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let (scene, output) = match &args.scene {
         Some(path) => {
-            let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
+            let loaded = load_scene_or_model(path)?;
             if !args.quiet {
                 for w in &loaded.warnings {
                     eprintln!("{w}");
@@ -126,6 +127,21 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Model import: a model file (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`, by
+/// extension in any case) becomes a framed scene; anything else is read as
+/// a Cornell XML scene.
+fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
+    if arbor::model::is_model_path(path) {
+        let (scene, model) =
+            arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
+        return Ok(arbor::xml::LoadedScene {
+            scene,
+            warnings: model.warnings,
+        });
+    }
+    arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()).into())
 }
 
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {

@@ -14,6 +14,7 @@ pub mod flatten;
 pub mod heatmap;
 pub mod light;
 pub mod mesh;
+pub mod model;
 pub mod partial;
 pub mod render;
 pub mod scene;

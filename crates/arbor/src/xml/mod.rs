@@ -1043,10 +1043,11 @@ impl<'a, 'input> Loader<'a, 'input> {
                 }
                 obj.mesh
             }
+            Some("ply" | "stl") => crate::model::load_mesh_data(&path).map_err(SceneError::Mesh)?,
             _ => {
                 return Err(self.error(
                     at,
-                    format!("mesh file '{file}' has an unknown type; expected a .msh or .obj file"),
+                    format!("mesh file '{file}' has an unknown type; expected a .msh, .obj, .ply or .stl file"),
                 ))
             }
         };

@@ -1,0 +1,105 @@
+//! `arbor render MODEL` through the real binary: a model file becomes a
+//! picture, a broken one a located error with exit status 2 and no file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn arbor(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run arbor")
+}
+
+/// The assimp test models, or `None` (after saying why) when absent and
+/// `ARBOR_REQUIRE_TEST_DATA=1` is not set.
+fn models() -> Option<PathBuf> {
+    let dir = PathBuf::from("/usr/share/assimp/models");
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing (apt-get install assimp-testmodels)",
+        dir.display()
+    );
+    eprintln!("skipping: {} is absent", dir.display());
+    None
+}
+
+#[test]
+fn a_written_model_renders_to_a_picture_with_the_model_in_it() {
+    let dir = tempfile::tempdir().unwrap();
+    // A red tetrahedron (OBJ with an MTL library, upper-case extension).
+    std::fs::write(dir.path().join("t.mtl"), "newmtl red\nKd 0.9 0.1 0.1\n").unwrap();
+    std::fs::write(
+        dir.path().join("T.OBJ"),
+        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 0 -1\nv 0.3 1 -0.3\nusemtl red\nf 1 2 4\nf 2 3 4\nf 3 1 4\nf 1 3 2\n",
+    )
+    .unwrap();
+    let o = arbor(dir.path(), &["render", "T.OBJ", "-o", "t.png", "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = image::open(dir.path().join("t.png")).unwrap().to_rgb8();
+    // The framing puts the model in the middle of the picture: red there.
+    let (w, h) = img.dimensions();
+    let reddish = img
+        .enumerate_pixels()
+        .filter(|(x, y, p)| {
+            x.abs_diff(w / 2) < w / 4
+                && y.abs_diff(h / 2) < h / 4
+                && p[0] as u32 > 2 * p[1] as u32
+                && p[0] > 60
+        })
+        .count();
+    assert!(reddish > 500, "{reddish} red pixels near the centre");
+}
+
+#[test]
+fn broken_models_exit_2_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 3\n").unwrap();
+    std::fs::write(dir.path().join("empty.stl"), "").unwrap();
+    std::fs::write(dir.path().join("cloud.ply"), "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n").unwrap();
+    for (file, want) in [
+        ("bad.obj", "bad.obj:3: "),
+        ("empty.stl", "empty.stl: "),
+        ("cloud.ply", "point cloud"),
+    ] {
+        let o = arbor(dir.path(), &["render", file, "-o", "out.png"]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{file}: {err}");
+        assert!(err.contains(want), "{file}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!dir.path().join("out.png").exists());
+    }
+}
+
+#[test]
+fn assimp_models_render_and_invalid_ones_fail() {
+    let Some(models) = models() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let good = models.join("PLY/cube_binary.ply");
+    let o = arbor(
+        dir.path(),
+        &["render", good.to_str().unwrap(), "-o", "c.png", "--quiet"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("c.png").is_file());
+    for bad in [
+        "invalid/empty.obj",
+        "invalid/malformed.obj",
+        "invalid/empty.ply",
+        "OBJ/point_cloud.obj",
+    ] {
+        let path = models.join(bad);
+        let o = arbor(
+            dir.path(),
+            &["render", path.to_str().unwrap(), "-o", "x.png"],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {err}");
+        assert!(err.starts_with(path.to_str().unwrap()), "{bad}: {err}");
+        assert!(!dir.path().join("x.png").exists());
+    }
+}

@@ -1,0 +1,206 @@
+//! Model import: the files people have (OBJ with MTL materials, PLY, STL,
+//! glTF 2.0) turned into a renderable [`Scene`] with an automatic camera,
+//! a ground plane and default lights ([`frame`]).
+//!
+//! The readers here are general importers, unlike [`crate::mesh::obj`],
+//! whose two exact numbering rules serve the Cornell scenes and the ray/hit
+//! interface and must not change. Every reader treats its input as
+//! untrusted: errors name the file (and the line, for text formats), counts
+//! promised by a header are checked against the file size before anything
+//! is allocated for them, and nothing panics.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{DVec3, Vec3};
+
+use crate::camera::Camera;
+use crate::light::Light;
+use crate::mesh::{MeshData, MeshError};
+use crate::scene::Scene;
+use crate::shader::Shader;
+use crate::surface::{MeshSurface, Surface};
+
+pub mod frame;
+pub mod gltf;
+pub mod obj;
+pub mod ply;
+pub mod stl;
+pub mod triangulate;
+
+/// A model as imported: its surfaces, and what the file says about viewing
+/// it, before [`frame::scene_for`] adds what the file leaves out.
+#[derive(Clone, Debug, Default)]
+pub struct Model {
+    /// Top-level surfaces (meshes, or groups placing shared meshes).
+    pub surfaces: Vec<Surface>,
+    /// The file's own camera (glTF), if any.
+    pub camera: Option<Camera>,
+    /// Aspect ratio (width / height) the file's camera asks for, if any.
+    pub aspect: Option<f64>,
+    /// The file's own lights, if any (none of the formats read today has them).
+    pub lights: Vec<Light>,
+    /// Non-fatal remarks for the user, each naming the file.
+    pub warnings: Vec<String>,
+    /// What the file holds, for `arbor info`.
+    pub stats: ModelStats,
+}
+
+/// Counts describing a model's structure.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ModelStats {
+    /// Scene-graph nodes (glTF nodes; 0 for single-mesh formats).
+    pub nodes: u64,
+    /// Distinct meshes (one per OBJ material group, 1 for PLY and STL).
+    pub meshes: u64,
+    /// Placements of meshes (equal to `meshes` without instancing).
+    pub placements: u64,
+    /// Triangles stored once per mesh.
+    pub unique_triangles: u64,
+    /// Triangles as placed in the scene (each placement counted).
+    pub instanced_triangles: u64,
+}
+
+/// The file types [`load_model`] reads, by lower-case extension.
+pub const MODEL_EXTENSIONS: &[&str] = &["obj", "ply", "stl", "gltf", "glb"];
+
+/// Whether `path` has one of the [`MODEL_EXTENSIONS`] (in any case).
+pub fn is_model_path(path: &Path) -> bool {
+    lower_extension(path).is_some_and(|e| MODEL_EXTENSIONS.contains(&e.as_str()))
+}
+
+/// The extension of `path` in lower case.
+pub fn lower_extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+/// Imports the model at `path`, choosing the reader by extension (any case).
+pub fn load_model(path: &Path) -> Result<Model, MeshError> {
+    match lower_extension(path).as_deref() {
+        Some("obj") => obj::load(path),
+        Some("ply") => Ok(single_mesh(ply::load(path)?)),
+        Some("stl") => Ok(single_mesh(z_up_to_y_up(stl::load(path)?))),
+        Some("gltf") | Some("glb") => gltf::load(path),
+        _ => Err(MeshError::file(
+            path,
+            "unknown model file type; expected .obj, .ply, .stl, .gltf or .glb",
+        )),
+    }
+}
+
+/// Imports the model at `path` and builds the scene that frames it
+/// ([`frame::scene_for`]). The warnings are the import's.
+pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), MeshError> {
+    let model = load_model(path)?;
+    let scene = frame::scene_for(&model)
+        .ok_or_else(|| MeshError::file(path, "the model has no triangles with finite size"))?;
+    Ok((scene, model))
+}
+
+/// Reads a PLY or STL file as one mesh, for `<data>` of a `Mesh` in the XML
+/// scene format (OBJ there keeps the Cornell 2015 rule of [`crate::mesh`]).
+pub fn load_mesh_data(path: &Path) -> Result<MeshData, MeshError> {
+    match lower_extension(path).as_deref() {
+        Some("ply") => ply::load(path),
+        Some("stl") => stl::load(path),
+        _ => Err(MeshError::file(
+            path,
+            "unknown mesh file type; expected .ply or .stl",
+        )),
+    }
+}
+
+/// The material every surface gets when the file gives none: a light grey
+/// with a soft highlight, so that shape reads well under the default lights.
+pub fn default_shader() -> Arc<Shader> {
+    Arc::new(Shader::Phong {
+        diffuse: DVec3::splat(0.7),
+        specular: DVec3::splat(0.2),
+        exponent: 40.0,
+        texture: None,
+    })
+}
+
+/// A model of one mesh with the default material.
+fn single_mesh(mesh: MeshData) -> Model {
+    let n = mesh.triangles.len() as u64;
+    Model {
+        surfaces: vec![Surface::Mesh(MeshSurface {
+            data: Arc::new(mesh),
+            shader: default_shader(),
+        })],
+        stats: ModelStats {
+            nodes: 0,
+            meshes: 1,
+            placements: 1,
+            unique_triangles: n,
+            instanced_triangles: n,
+        },
+        ..Model::default()
+    }
+}
+
+/// STL files come from CAD and 3D printing, where z is up; our framing
+/// (and OBJ, PLY and glTF) has y up. Turns (x, y, z) into (x, z, -y), a
+/// rotation, so the winding and the handedness are kept.
+fn z_up_to_y_up(mut mesh: MeshData) -> MeshData {
+    for p in &mut mesh.positions {
+        *p = Vec3::new(p.x, p.z, -p.y);
+    }
+    if let Some(ns) = &mut mesh.normals {
+        for n in ns {
+            *n = Vec3::new(n.x, n.z, -n.y);
+        }
+    }
+    mesh
+}
+
+/// Reads a whole file, naming it in the error.
+fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
+    std::fs::read(path).map_err(|e| MeshError::file(path, format!("cannot read the file: {e}")))
+}
+
+/// Drops per-vertex normals that are unusable (a zero or non-finite vector
+/// anywhere would give a NaN shading normal) and returns whether it did.
+fn sanitize_normals(mesh: &mut MeshData) -> bool {
+    if let Some(ns) = &mesh.normals {
+        let bad = ns.len() != mesh.positions.len()
+            || ns
+                .iter()
+                .any(|n| !n.is_finite() || n.length_squared() < 1e-20);
+        if bad {
+            mesh.normals = None;
+            return true;
+        }
+    }
+    false
+}
+
+/// Whether every position is finite (infinite or NaN coordinates would
+/// poison the bounds and the acceleration structure).
+fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshError> {
+    match positions.iter().position(|p| !p.is_finite()) {
+        Some(i) => Err(MeshError::file(
+            path,
+            format!(
+                "vertex {} has a coordinate that is not a finite number",
+                i + 1
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// A token cut to a readable length for an error message (a malformed file
+/// may have a megabyte on one line).
+fn short(token: &str) -> String {
+    const MAX: usize = 40;
+    if token.chars().count() <= MAX {
+        token.to_string()
+    } else {
+        let cut: String = token.chars().take(MAX).collect();
+        format!("{cut}...")
+    }
+}

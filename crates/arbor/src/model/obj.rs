@@ -1,0 +1,364 @@
+//! Wavefront OBJ import with MTL materials, through `tobj`.
+//!
+//! A first pass of our own checks every line that `tobj` would reject or
+//! silently misread and reports it with its line number (`tobj` reports
+//! errors without one); it also hands `tobj` a normalised copy of the text:
+//! numbers are re-printed, so forms that C's `atof` accepts and Rust's
+//! parser does not (`3.1+e2`, read as 3.1) still load, with a warning; and
+//! text that is not UTF-8 is made so (it can only matter in comments and
+//! names). `tobj` then does the OBJ semantics (objects, groups, `usemtl`,
+//! the material library); polygons come back untriangulated and are
+//! triangulated by ear clipping ([`super::triangulate`]), correct for
+//! concave faces where `tobj`'s fan is not.
+//!
+//! # Materials (MTL → shaders)
+//!
+//! | MTL | shader |
+//! | --- | --- |
+//! | `illum` 4, 6 or 7, or `d` < 1 together with `Ni` > 1 | Glass, refractive index `Ni` (1.5 when `Ni` is absent or ≤ 1) |
+//! | `illum` 3 or 5 | Glazed (a mirror-like coat, index `Ni` or 1.5) over the shader below |
+//! | `Ks` not black and `Ns` ≥ 1 | Phong: diffuse `Kd`, specular `Ks`, exponent `Ns` |
+//! | otherwise | Lambertian, diffuse `Kd` |
+//!
+//! `Kd` defaults to 0.8 grey when a material has none. `Ns` below 1 would be
+//! a highlight as wide as the hemisphere (a uniform wash of `Ks`), so such
+//! materials stay Lambertian. Faces with no material, or one the library
+//! does not define, get [`super::default_shader`]; a missing or unreadable
+//! library is a warning, not an error.
+
+use std::collections::HashMap;
+use std::io::Cursor;
+use std::path::Path;
+use std::sync::Arc;
+
+use glam::{DVec3, Vec2, Vec3};
+
+use super::triangulate::triangulate;
+use super::{default_shader, short, Model, ModelStats};
+use crate::mesh::{MeshData, MeshError};
+use crate::shader::{Fresnel, Shader};
+use crate::surface::{MeshSurface, Surface};
+
+/// Imports the OBJ file at `path` with its material library.
+pub fn load(path: &Path) -> Result<Model, MeshError> {
+    let bytes = super::read_bytes(path)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let mut warnings = Vec::new();
+    let clean = prepass(text, path, &mut warnings)?;
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let (models, materials) =
+        tobj::load_obj_buf(&mut Cursor::new(clean.as_bytes()), &options, |p| {
+            let p = dir.join(p);
+            if p.is_file() {
+                tobj::load_mtl(&p)
+            } else {
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        })
+        .map_err(|e| MeshError::file(path, format!("malformed OBJ file: {e}")))?;
+    let materials = match materials {
+        Ok(m) => m,
+        Err(e) => {
+            warnings.push(format!(
+                "{}: warning: cannot load the material library ({e}); using the default material",
+                path.display()
+            ));
+            Vec::new()
+        }
+    };
+    let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::new();
+    let default = default_shader();
+    let mut surfaces = Vec::new();
+    let mut stats = ModelStats::default();
+    let mut undefined_material = false;
+    for m in &models {
+        let mesh = &m.mesh;
+        let positions: Vec<Vec3> = mesh
+            .positions
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        let mut data = MeshData {
+            normals: (mesh.normals.len() == mesh.positions.len()).then(|| {
+                mesh.normals
+                    .chunks_exact(3)
+                    .map(|c| Vec3::new(c[0], c[1], c[2]))
+                    .collect()
+            }),
+            uvs: (mesh.texcoords.len() / 2 == positions.len() && !positions.is_empty()).then(
+                || {
+                    mesh.texcoords
+                        .chunks_exact(2)
+                        .map(|c| Vec2::new(c[0], c[1]))
+                        .collect()
+                },
+            ),
+            triangles: Vec::new(),
+            positions,
+        };
+        if mesh.face_arities.is_empty() {
+            data.triangles = mesh
+                .indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect();
+        } else {
+            let mut start = 0usize;
+            for &arity in &mesh.face_arities {
+                let end = start + arity as usize;
+                let Some(face) = mesh.indices.get(start..end) else {
+                    break;
+                };
+                triangulate(&data.positions, face, &mut data.triangles);
+                start = end;
+            }
+        }
+        if data.triangles.is_empty() {
+            continue;
+        }
+        super::check_finite(path, &data.positions)?;
+        super::sanitize_normals(&mut data);
+        let shader = match m.mesh.material_id {
+            Some(id) if id < materials.len() => shaders
+                .entry(id)
+                .or_insert_with(|| shader_for(&materials[id]))
+                .clone(),
+            Some(_) => {
+                undefined_material = true;
+                default.clone()
+            }
+            None => default.clone(),
+        };
+        let n = data.triangles.len() as u64;
+        stats.meshes += 1;
+        stats.placements += 1;
+        stats.unique_triangles += n;
+        stats.instanced_triangles += n;
+        surfaces.push(Surface::Mesh(MeshSurface {
+            data: Arc::new(data),
+            shader,
+        }));
+    }
+    if undefined_material {
+        warnings.push(format!(
+            "{}: warning: faces use a material the library does not define; they get the default material",
+            path.display()
+        ));
+    }
+    if surfaces.is_empty() {
+        return Err(MeshError::file(
+            path,
+            "the file has no faces to render (an empty file or a point cloud?)",
+        ));
+    }
+    Ok(Model {
+        surfaces,
+        warnings,
+        stats,
+        ..Model::default()
+    })
+}
+
+/// The shader for an MTL material (the table in the module documentation).
+pub fn shader_for(m: &tobj::Material) -> Arc<Shader> {
+    let rgb = |c: Option<[f32; 3]>, default: f64| {
+        c.map_or(DVec3::splat(default), |[r, g, b]| {
+            DVec3::new(r as f64, g as f64, b as f64).clamp(DVec3::ZERO, DVec3::ONE)
+        })
+    };
+    let kd = rgb(m.diffuse, 0.8);
+    let ks = rgb(m.specular, 0.0);
+    let ns = m.shininess.map_or(0.0, |n| n as f64);
+    let ni = m
+        .optical_density
+        .map(|n| n as f64)
+        .filter(|n| n.is_finite() && *n > 1.0);
+    let illum = m.illumination_model;
+    let dissolve = m.dissolve.map_or(1.0, |d| d as f64);
+    if matches!(illum, Some(4 | 6 | 7)) || (dissolve < 1.0 && ni.is_some()) {
+        return Arc::new(Shader::Glass {
+            refractive_index: ni.unwrap_or(1.5),
+        });
+    }
+    let base = if ks.max_element() > 0.0 && ns >= 1.0 {
+        Shader::Phong {
+            diffuse: kd,
+            specular: ks,
+            exponent: ns,
+            texture: None,
+        }
+    } else {
+        Shader::Lambertian {
+            diffuse: kd,
+            texture: None,
+        }
+    };
+    if matches!(illum, Some(3 | 5)) {
+        return Arc::new(Shader::Glazed {
+            refractive_index: ni.unwrap_or(1.5),
+            substrate: Arc::new(base),
+            fresnel: Fresnel::Exact,
+        });
+    }
+    Arc::new(base)
+}
+
+/// Reads a number the way C's `atof` does: the longest prefix that is a
+/// number. Returns the value and whether characters were left over.
+fn lenient_number(token: &str) -> Option<(f32, bool)> {
+    if let Ok(v) = token.parse::<f32>() {
+        return Some((v, false));
+    }
+    // Rust accepts "inf" and "nan" spellings: those are not coordinates.
+    (1..token.len())
+        .rev()
+        .filter(|&end| token.is_char_boundary(end))
+        .find_map(|end| token[..end].parse::<f32>().ok())
+        .filter(|v| v.is_finite())
+        .map(|v| (v, true))
+}
+
+/// Checks the lines `tobj` would reject or misread and returns the text to
+/// give it: vertex lines re-printed with clean numbers, bad `f` lines
+/// reported with their line number.
+fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, MeshError> {
+    let mut out = String::with_capacity(text.len() + 64);
+    let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
+    let mut faces = 0usize;
+    let mut odd_numbers = 0usize;
+    let mut short_faces = 0usize;
+    let mut first_odd = 0usize;
+    for (i, raw) in text.split('\n').enumerate() {
+        let line_no = i + 1;
+        let line = raw.strip_suffix('\r').unwrap_or(raw);
+        let body = line.split_once('#').map_or(line, |(b, _)| b);
+        let mut tokens = body.split_whitespace();
+        let keyword = tokens.next().unwrap_or("");
+        let needed = match keyword {
+            "v" | "vn" => Some(3),
+            "vt" => Some(1),
+            _ => None,
+        };
+        if let Some(needed) = needed {
+            let mut values = Vec::with_capacity(3);
+            for tok in tokens.by_ref().take(if keyword == "vt" { 2 } else { 3 }) {
+                let Some((v, odd)) = lenient_number(tok) else {
+                    return Err(MeshError::at(
+                        path,
+                        line_no,
+                        format!("'{keyword}' expects numbers, found '{}'", short(tok)),
+                    ));
+                };
+                if odd {
+                    odd_numbers += 1;
+                    if first_odd == 0 {
+                        first_odd = line_no;
+                    }
+                }
+                values.push(v);
+            }
+            if values.len() < needed {
+                return Err(MeshError::at(
+                    path,
+                    line_no,
+                    format!("'{keyword}' expects {needed} numbers or more"),
+                ));
+            }
+            out.push_str(keyword);
+            for v in &values {
+                out.push(' ');
+                out.push_str(&v.to_string());
+            }
+            out.push('\n');
+            match keyword {
+                "v" => nv += 1,
+                "vt" => nt += 1,
+                _ => nn += 1,
+            }
+            continue;
+        }
+        if keyword == "f" {
+            let corners: Vec<&str> = tokens.collect();
+            if corners.len() < 3 {
+                short_faces += 1;
+                out.push('\n');
+                continue;
+            }
+            for c in &corners {
+                let parts: Vec<&str> = c.split('/').collect();
+                if parts.len() > 3 || parts[0].is_empty() {
+                    return Err(MeshError::at(
+                        path,
+                        line_no,
+                        format!("malformed face corner '{}'", short(c)),
+                    ));
+                }
+                for (k, (part, count, noun)) in parts
+                    .iter()
+                    .zip([(nv, "vertex"), (nt, "texture coordinate"), (nn, "normal")])
+                    .map(|(p, (n, noun))| (p, n, noun))
+                    .enumerate()
+                {
+                    if k > 0 && part.is_empty() {
+                        continue;
+                    }
+                    let Ok(idx) = part.parse::<i64>() else {
+                        return Err(MeshError::at(
+                            path,
+                            line_no,
+                            format!("malformed face corner '{}'", short(c)),
+                        ));
+                    };
+                    // 1-based; negative counts back from the last one defined.
+                    let ok = if idx > 0 {
+                        idx <= count
+                    } else {
+                        idx < 0 && -idx <= count
+                    };
+                    if !ok {
+                        return Err(MeshError::at(
+                            path,
+                            line_no,
+                            format!(
+                                "{noun} index {idx} is out of range ({count} {noun}s defined so far; indices start at 1)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            faces += 1;
+        }
+        out.push_str(line);
+        out.push('\n');
+    }
+    if odd_numbers > 0 {
+        warnings.push(format!(
+            "{}:{first_odd}: warning: {odd_numbers} numbers with trailing characters were read up to the first one that is not part of a number",
+            path.display()
+        ));
+    }
+    if short_faces > 0 {
+        warnings.push(format!(
+            "{}: warning: skipped {short_faces} faces with fewer than 3 corners",
+            path.display()
+        ));
+    }
+    if faces == 0 {
+        return Err(MeshError::file(
+            path,
+            if nv == 0 {
+                "the file has no vertices and no faces (is it empty?)"
+            } else {
+                "the file has vertices but no faces (a point cloud?); nothing to render"
+            },
+        ));
+    }
+    Ok(out)
+}

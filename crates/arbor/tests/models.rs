@@ -1,0 +1,258 @@
+//! Model import against the files people have: Debian's `assimp-testmodels`
+//! (under `/usr/share/assimp/models`), plus small files written here for
+//! the error paths. Without the package the tests that need it report
+//! themselves skipped, unless `ARBOR_REQUIRE_TEST_DATA=1`.
+
+use std::path::{Path, PathBuf};
+
+use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::mesh::MeshError;
+use arbor::model::{frame, load_model, load_model_scene};
+use arbor::shader::Shader;
+use arbor::surface::Surface;
+
+/// The assimp test models folder, or `None` (after saying why) when the
+/// package is not installed and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
+fn models() -> Option<PathBuf> {
+    let dir = PathBuf::from(
+        std::env::var("ARBOR_ASSIMP_MODELS").unwrap_or_else(|_| "/usr/share/assimp/models".into()),
+    );
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    assert!(
+        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
+        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing (apt-get install assimp-testmodels)",
+        dir.display()
+    );
+    eprintln!(
+        "skipping: {} is absent (apt-get install assimp-testmodels)",
+        dir.display()
+    );
+    None
+}
+
+fn triangles(surfaces: &[Surface]) -> usize {
+    let mut n = 0;
+    for s in surfaces {
+        s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
+            if let Surface::Mesh(m) = leaf {
+                n += m.data.triangles.len();
+            }
+        });
+    }
+    n
+}
+
+#[test]
+fn the_good_files_load_and_frame() {
+    let Some(dir) = models() else { return };
+    // (file, fewest triangles expected): counts from the files' own faces.
+    let files = [
+        ("OBJ/spider.obj", 1368),
+        ("OBJ/WusonOBJ.obj", 3732),
+        ("OBJ/regr01.obj", 2710),
+        ("OBJ/concave_polygon.obj", 64),
+        ("OBJ/cube_usemtl.obj", 12),
+        ("OBJ/number_formats.obj", 1),
+        ("OBJ/box_mat_with_spaces.obj", 12),
+        ("PLY/Wuson.ply", 3732),
+        ("PLY/cube.ply", 12),
+        ("PLY/cube_binary.ply", 12),
+        ("PLY/cube_uv.ply", 12),
+        ("STL/Spider_ascii.stl", 1000),
+        ("STL/Spider_binary.stl", 1000),
+        ("STL/Wuson.stl", 1000),
+        ("STL/sphereWithHole.stl", 10),
+        ("STL/triangle.stl", 1),
+        ("STL/triangle_with_two_solids.stl", 2),
+        ("STL/triangle_with_empty_solid.stl", 1),
+        ("STL/3DSMaxExport.STL", 12),
+        ("STL/formatDetection", 0),
+    ];
+    for (file, min) in files {
+        let path = dir.join(file);
+        if min == 0 {
+            // No model extension: not ours to read.
+            assert!(load_model(&path).is_err());
+            continue;
+        }
+        let (scene, model) = load_model_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        let n = triangles(&model.surfaces);
+        assert!(n >= min, "{file}: {n} triangles, expected at least {min}");
+        assert_eq!(model.stats.unique_triangles as usize, n, "{file}");
+        // The model, the floor under it, the default lights.
+        assert_eq!(scene.surfaces.len(), model.surfaces.len() + 1, "{file}");
+        assert_eq!(scene.lights.len(), 3, "{file}");
+        let (lo, hi) = frame::bounds(&model.surfaces).unwrap();
+        let Surface::Box(floor) = scene.surfaces.last().unwrap() else {
+            panic!("{file}: no floor")
+        };
+        assert!(
+            floor.max.y < lo.y && floor.max.y > lo.y - (hi - lo).length(),
+            "{file}"
+        );
+        Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    }
+}
+
+#[test]
+fn spider_and_wuson_agree_across_formats() {
+    let Some(dir) = models() else { return };
+    let a = load_model(&dir.join("STL/Spider_ascii.stl")).unwrap();
+    let b = load_model(&dir.join("STL/Spider_binary.stl")).unwrap();
+    assert_eq!(triangles(&a.surfaces), triangles(&b.surfaces));
+    // The same bull as OBJ and PLY.
+    let obj = load_model(&dir.join("OBJ/WusonOBJ.obj")).unwrap();
+    let ply = load_model(&dir.join("PLY/Wuson.ply")).unwrap();
+    assert_eq!(triangles(&obj.surfaces), triangles(&ply.surfaces));
+    // PLY normals are read.
+    let Surface::Mesh(m) = &ply.surfaces[0] else {
+        panic!()
+    };
+    assert!(m.data.normals.is_some());
+}
+
+#[test]
+fn mtl_materials_become_shaders() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/cube_usemtl.obj")).unwrap();
+    let exponents: Vec<f64> = m
+        .surfaces
+        .iter()
+        .filter_map(|s| match s {
+            Surface::Mesh(m) => match &*m.shader {
+                Shader::Phong { exponent, .. } => Some(*exponent),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect();
+    // cube_usemtl.mtl: Ns 200 and Ns 16, both with Ks.
+    assert!(
+        exponents.contains(&200.0) && exponents.contains(&16.0),
+        "{exponents:?}"
+    );
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+}
+
+#[test]
+fn concave_face_is_ear_clipped() {
+    let Some(dir) = models() else { return };
+    // One 66-corner face: a ring written as one outline with a seam.
+    let m = load_model(&dir.join("OBJ/concave_polygon.obj")).unwrap();
+    let Surface::Mesh(mesh) = &m.surfaces[0] else {
+        panic!()
+    };
+    let d = &mesh.data;
+    assert_eq!(d.triangles.len(), 64);
+    // The hole stays empty: no triangle covers the ring's centre.
+    let (lo, hi) = frame::bounds(&m.surfaces).unwrap();
+    let c = (lo + hi) / 2.0;
+    let covers = d.triangles.iter().any(|t| {
+        let [a, b, e] = t.map(|i| {
+            let p = d.positions[i as usize].as_dvec3();
+            glam::DVec2::new(p.y - c.y, p.z - c.z)
+        });
+        let s = |p: glam::DVec2, q: glam::DVec2| p.perp_dot(q);
+        let (x, y, z) = (s(b - a, -a), s(e - b, -b), s(a - e, -e));
+        (x > 0.0 && y > 0.0 && z > 0.0) || (x < 0.0 && y < 0.0 && z < 0.0)
+    });
+    assert!(!covers);
+}
+
+fn err(path: &Path) -> MeshError {
+    match load_model_scene(path) {
+        Ok(_) => panic!("{} loaded", path.display()),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn broken_files_and_point_clouds_fail_cleanly() {
+    let Some(dir) = models() else { return };
+    for (file, line, words) in [
+        ("invalid/empty.obj", None, "no vertices"),
+        ("invalid/empty.ply", None, "empty"),
+        ("invalid/malformed.obj", Some(23), "out of range"),
+        ("OBJ/point_cloud.obj", None, "point cloud"),
+        ("OBJ/testpoints.obj", None, "no faces"),
+        ("PLY/points.ply", None, "point cloud"),
+        ("PLY/issue623.ply", None, "point cloud"),
+        ("PLY/pond.0.ply", Some(3), "promises"),
+    ] {
+        let e = err(&dir.join(file));
+        assert_eq!(e.path, dir.join(file));
+        assert_eq!(e.line, line, "{file}: {e}");
+        assert!(e.message.contains(words), "{file}: {e}");
+    }
+    // A material the library lacks is a warning, not an error.
+    let m = load_model(&dir.join("invalid/malformed2.obj"));
+    assert!(m.is_ok() || m.unwrap_err().message.contains("faces"));
+}
+
+#[test]
+fn written_broken_files_fail_with_their_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, &[u8], Option<usize>, &str); 8] = [
+        ("a.obj", b"v 0 0 0\nv 1 0 0\nv x 1 0\nf 1 2 3\n", Some(3), "numbers"),
+        ("b.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", Some(4), "out of range"),
+        ("c.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n", Some(4), "out of range"),
+        ("d.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3/a\n", Some(4), "malformed"),
+        ("e.stl", b"", None, "empty"),
+        ("f.STL", b"short", None, "too short"),
+        ("g.ply", b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1\n", Some(14), "ends"),
+        ("h.ply", b"ply\nformat binary_little_endian 1.0\nelement vertex 3000000000\nproperty float x\nend_header\n", Some(3), "promises"),
+    ];
+    for (name, bytes, line, words) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let e = err(&path);
+        assert_eq!(e.line, line, "{name}: {e}");
+        assert!(e.message.contains(words), "{name}: {e}");
+        assert!(
+            e.to_string().starts_with(&path.display().to_string()),
+            "{e}"
+        );
+    }
+    // A missing material library is a warning with the default material.
+    let path = dir.path().join("m.obj");
+    std::fs::write(
+        &path,
+        "mtllib nowhere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",
+    )
+    .unwrap();
+    let m = load_model(&path).unwrap();
+    assert!(
+        m.warnings.iter().any(|w| w.contains("material library")),
+        "{:?}",
+        m.warnings
+    );
+}
+
+#[test]
+fn ply_and_stl_serve_as_xml_mesh_data() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("q.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("t.stl"),
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n",
+    )
+    .unwrap();
+    let scene = dir.path().join("s.xml");
+    std::fs::write(
+        &scene,
+        r#"<scene><camera><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>2</projDistance></camera>
+<image>8 8</image>
+<surface type="Mesh"><data>q.ply</data></surface>
+<surface type="Mesh"><data>t.stl</data></surface>
+<light><position>3 4 5</position></light></scene>"#,
+    )
+    .unwrap();
+    let loaded = arbor::xml::load_scene(&scene).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(triangles(&loaded.scene.surfaces), 3);
+}
