@@ -214,7 +214,7 @@ fn boxes() -> impl Strategy<Value = Vec<Aabb>> {
 }
 
 proptest! {
-    // 64 cases keep the suite fast; set PROPTEST_CASES for a deeper search.
+    // 256 cases keep the suite fast; set PROPTEST_CASES for a deeper search.
     #![proptest_config(ProptestConfig { cases: cases(), ..ProptestConfig::default() })]
 
     #[test]
@@ -251,7 +251,7 @@ fn cases() -> u32 {
     std::env::var("PROPTEST_CASES")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(64)
+        .unwrap_or(256)
 }
 
 #[test]
