@@ -359,6 +359,9 @@ pub(super) struct Binned;
 
 impl Splitter for Binned {
     fn split(&self, refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhParams) -> Split {
+        if refs.len() <= 3 {
+            return tiny(refs, b, params);
+        }
         let bins = if refs.len() <= SMALL {
             8
         } else {
@@ -370,6 +373,41 @@ impl Splitter for Binned {
             _ => binned::<32>(refs, b, cb, params),
         }
     }
+}
+
+/// Exact SAH for two or three references: every split separates one
+/// reference from the rest, so all candidates are enumerated directly,
+/// cheaper than clearing bins and better than binning.
+fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
+    let n = refs.len();
+    let mut best = (f32::INFINITY, 0);
+    for i in 0..n {
+        let rest = refs
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != i)
+            .fold(B4::EMPTY, |acc, (_, r)| acc.grow(r.min, r.max));
+        let one = B4::EMPTY.grow(refs[i].min, refs[i].max);
+        let cost = one.area() + rest.area() * (n - 1) as f32;
+        if cost < best.0 {
+            best = (cost, i);
+        }
+    }
+    let (ct, ci) = (params.traversal_cost, params.intersection_cost);
+    let area = b.surface_area();
+    let (cost, i) = best;
+    if !cost.is_finite() {
+        return if n <= params.max_leaf_size {
+            Split::Leaf
+        } else {
+            median_split(refs, b.largest_axis())
+        };
+    }
+    if n <= params.max_leaf_size && ci * n as f32 * area <= ct * area + ci * cost {
+        return Split::Leaf;
+    }
+    refs.swap(0, i);
+    Split::At(1, None)
 }
 
 fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhParams) -> Split {
