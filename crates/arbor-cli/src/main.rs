@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod compare;
+mod farm;
 mod info;
+mod merge;
 mod render;
 mod trace;
 
@@ -29,6 +31,10 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Trace a batch of rays against a triangle mesh (the ray/hit file interface).
     Trace(trace::TraceArgs),
+    /// Assemble partial images (`render --tile`) into one PNG or EXR.
+    Merge(merge::MergeArgs),
+    /// Render on a cluster: submit tiles as Slurm array jobs, show progress.
+    Farm(farm::FarmArgs),
 }
 
 /// An error that is the user's input's fault (exit status 2), as opposed to
@@ -63,6 +69,8 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Info(args) => info::run(args),
         Command::Trace(args) => trace::run(args),
+        Command::Merge(args) => merge::run(args),
+        Command::Farm(args) => farm::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

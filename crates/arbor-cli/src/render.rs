@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::Context;
 use arbor::film::ImageFormat;
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::render::render;
+use arbor::render::{render_region, Region};
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
 use clap::Args;
@@ -41,6 +41,14 @@ pub struct RenderArgs {
     /// Most placements of shared (instanced) surfaces to accept.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PLACEMENTS)]
     pub max_instances: u64,
+    /// Render only tile K of N (K from 0 to N-1; the image cut into N
+    /// horizontal bands of whole rows) to a `.part` file for `arbor merge`.
+    #[arg(long, value_name = "K/N", value_parser = crate::farm::part::parse_tile, conflicts_with = "region")]
+    pub tile: Option<(u32, u32)>,
+    /// Render only the pixels x0..x1 by y0..y1 (row 0 at the top) to a
+    /// `.part` file for `arbor merge`.
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region)]
+    pub region: Option<Region>,
 }
 
 /// Runs `arbor render`.
@@ -70,9 +78,23 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
             PathBuf::from("arbor.png"),
         ),
     };
-    let output = args.output.clone().unwrap_or(output);
+    // Partial renders: --tile, --region or a `.part` output (farm::part).
+    let part_spec = crate::farm::part::spec(args.tile, args.region);
+    let target = crate::farm::part::target(part_spec, args.output.as_deref(), &output, &scene)?;
+    let (output, part) = (target.output, target.part);
     // Check the format before spending time on the render.
-    ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
+    if part.is_none() {
+        ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
+    }
+    let region = part.map_or(
+        Region {
+            x0: 0,
+            y0: 0,
+            x1: scene.width,
+            y1: scene.height,
+        },
+        |p| p.0,
+    );
     let loaded = start.elapsed();
 
     let flat = Flattened::new(&scene, args.max_instances).map_err(|e| InputError(e.to_string()))?;
@@ -83,18 +105,33 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
 
     let cancel = Arc::new(AtomicBool::new(false));
     install_interrupt_handler(cancel.clone());
-    let total = scene.width as u64 * scene.height as u64;
+    let total = region.area();
     let bar = progress_bar(total, args.quiet);
     let render_start = Instant::now();
-    let film = render(&scene, &tracer, &|n| bar.inc(n), &cancel);
+    let film = render_region(&scene, &tracer, region, &|n| bar.inc(n), &cancel);
     bar.finish_and_clear();
     let film = match film {
         Ok(f) => f,
         Err(_) => anyhow::bail!("interrupted: no image written"),
     };
     let rendered = render_start.elapsed();
-    film.write(&output, scene.variant)
-        .with_context(|| "writing the image")?;
+    match part {
+        // A part records where it belongs and what it was rendered from.
+        Some((region, tile)) => arbor::partial::Partial {
+            header: arbor::partial::PartHeader {
+                width: scene.width,
+                height: scene.height,
+                region,
+                tile,
+                variant: scene.variant,
+                scene_hash: arbor::partial::scene_hash(&scene),
+            },
+            film,
+        }
+        .write(&output),
+        None => film.write(&output, scene.variant),
+    }
+    .with_context(|| "writing the image")?;
     if !args.quiet {
         eprintln!(
             "wrote {} ({}x{}, {} samples per pixel) in {:.2} s",
@@ -132,7 +169,7 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
 /// Model import: a model file (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`, by
 /// extension in any case) becomes a framed scene; anything else is read as
 /// a Cornell XML scene.
-fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
+pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
     if arbor::model::is_model_path(path) {
         let (scene, model) =
             arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;

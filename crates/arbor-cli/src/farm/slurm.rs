@@ -1,0 +1,461 @@
+//! `arbor farm slurm`: one Slurm array job (a task per tile and scene) and
+//! a merge job that waits for it (`--dependency=afterok`). Parts already on
+//! disk are the checkpoint: running the same command again submits only
+//! the tiles that are neither done nor still queued or running.
+
+use std::collections::HashSet;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, SystemTime};
+
+use anyhow::Context;
+use arbor::film::ImageFormat;
+use arbor_accel::AccelKind;
+use clap::Args;
+
+use super::{index_list, parts_dir, recorded_jobs, squeue, Manifest, PartState};
+use crate::InputError;
+
+/// Arguments of `arbor farm slurm`.
+#[derive(Args, Debug)]
+pub struct SlurmArgs {
+    /// Scene files; several are the frames of a sequence.
+    #[arg(required = true, value_name = "SCENE")]
+    pub scenes: Vec<PathBuf>,
+    /// Tiles per scene (horizontal bands of whole rows; at most the image height).
+    #[arg(long, value_name = "N")]
+    pub tiles: u32,
+    /// Slurm partition for both jobs.
+    #[arg(long, value_name = "P")]
+    pub partition: Option<String>,
+    /// Time limit of each task (Slurm's format, e.g. `10:00`).
+    #[arg(long, value_name = "T")]
+    pub time: Option<String>,
+    /// CPUs per render task (its render threads).
+    #[arg(long, value_name = "C", default_value_t = 1)]
+    pub cpus_per_task: u32,
+    /// Acceleration structure of the render tasks (pixels never depend on it).
+    #[arg(long, default_value_t = AccelKind::DEFAULT)]
+    pub accel: AccelKind,
+    /// Print the job scripts and what would be submitted; submit nothing.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Wait for the merge job and fail if it does not produce the picture.
+    #[arg(long)]
+    pub wait: bool,
+    /// The picture (`.png`/`.exr`) for one scene; a folder receiving
+    /// `STEM.png` per scene for several.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Runs `arbor farm slurm`.
+pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
+    if args.tiles == 0 {
+        return Err(InputError("--tiles must be at least 1".into()).into());
+    }
+    if args.cpus_per_task == 0 {
+        return Err(InputError("--cpus-per-task must be at least 1".into()).into());
+    }
+    let output = absolute(&args.output)?;
+    let sequence = args.scenes.len() > 1;
+    let is_picture = ImageFormat::from_path(&output).is_ok();
+    if !sequence && !is_picture {
+        return Err(InputError(format!(
+            "{}: with one scene, -o names the picture: a .png or .exr file",
+            output.display()
+        ))
+        .into());
+    }
+    if sequence && is_picture {
+        return Err(InputError(format!(
+            "{}: with several scenes, -o names a folder (it receives STEM.png per scene)",
+            output.display()
+        ))
+        .into());
+    }
+    let manifest = load_scenes(&args.scenes, args.tiles, &output)?;
+    let arbor = std::env::current_exe().context("finding the arbor executable")?;
+    let parts = parts_dir(&output);
+    let previous = std::fs::read_to_string(Manifest::path(&output))
+        .ok()
+        .and_then(|t| Manifest::parse(&t));
+
+    // What the queue still holds from earlier submissions for this output.
+    let jobs = recorded_jobs(&output);
+    let queue = squeue().unwrap_or_default();
+    let in_queue = |kind: &str| -> Vec<super::QueueEntry> {
+        queue
+            .iter()
+            .filter(|e| jobs.iter().any(|(k, id)| k == kind && *id == e.job))
+            .cloned()
+            .collect()
+    };
+    let active_tasks = in_queue("render");
+    let old_merges: HashSet<String> = in_queue("merge").into_iter().map(|e| e.job).collect();
+    // Array indices only mean the same tiles under the same manifest.
+    let same_layout = previous.as_ref().is_some_and(|p| {
+        p.tiles == manifest.tiles
+            && p.scenes.len() == manifest.scenes.len()
+            && p.scenes
+                .iter()
+                .zip(&manifest.scenes)
+                .all(|(a, b)| a.2 == b.2)
+    });
+    if !active_tasks.is_empty() && !same_layout {
+        let ids: HashSet<&str> = active_tasks.iter().map(|e| e.job.as_str()).collect();
+        return Err(InputError(format!(
+            "{}: render tasks of a submission with other scenes or tile count are still queued or running (job {}); wait for them or scancel them",
+            output.display(),
+            ids.into_iter().collect::<Vec<_>>().join(", ")
+        ))
+        .into());
+    }
+    let active: HashSet<u32> = active_tasks.iter().filter_map(|e| e.task).collect();
+
+    let n = manifest.tiles;
+    let mut todo = Vec::new();
+    let (mut done, mut stale) = (0usize, 0usize);
+    for s in 0..manifest.scenes.len() {
+        for k in 0..n {
+            let index = s as u32 * n + k;
+            match manifest.part_state(s, k) {
+                PartState::Done => done += 1,
+                state => {
+                    stale += (state == PartState::Stale) as usize;
+                    if !active.contains(&index) {
+                        todo.push(index);
+                    }
+                }
+            }
+        }
+    }
+    let total = manifest.scenes.len() * n as usize;
+    let pictures_done = (0..manifest.scenes.len()).all(|s| manifest.picture(s).exists());
+    if done == total && pictures_done && active.is_empty() {
+        println!(
+            "{}: complete ({total} tiles done, merged); nothing to submit",
+            output.display()
+        );
+        return Ok(());
+    }
+
+    let render_script = render_script(&manifest, &args, &arbor, &todo);
+    let merge_script = merge_script(&manifest, &args, &arbor);
+    if args.dry_run {
+        println!("# {}", parts.join("render.sbatch").display());
+        println!("{render_script}");
+        println!("# {}", parts.join("merge.sbatch").display());
+        println!("{merge_script}");
+        println!(
+            "# dry run: would submit {} render task(s) (array {}), {done} of {total} tiles done, {} queued or running; then the merge job",
+            todo.len(),
+            if todo.is_empty() { "-".into() } else { index_list(&todo) },
+            active.len()
+        );
+        return Ok(());
+    }
+
+    std::fs::create_dir_all(parts.join("logs"))
+        .with_context(|| format!("creating {}", parts.display()))?;
+    for (_, stem, _) in &manifest.scenes {
+        std::fs::create_dir_all(parts.join(stem))
+            .with_context(|| format!("creating {}", parts.display()))?;
+    }
+    if manifest.is_sequence() {
+        std::fs::create_dir_all(&output)
+            .with_context(|| format!("creating {}", output.display()))?;
+    }
+    write_text(&Manifest::path(&output), &manifest.to_text())?;
+    let submitted_at = SystemTime::now();
+
+    // A merge from an earlier run is replaced: it may wait forever on a
+    // cancelled task, or run before the tiles submitted now.
+    for id in &old_merges {
+        let _ = Command::new("scancel").arg(id).status();
+    }
+    let mut dependency: Vec<String> = Vec::new();
+    for e in &active_tasks {
+        if let Some(t) = e.task {
+            dependency.push(format!("{}_{t}", e.job));
+        }
+    }
+    if !todo.is_empty() {
+        let path = parts.join("render.sbatch");
+        write_text(&path, &render_script)?;
+        let id = sbatch(&[], &path)?;
+        record_job(&output, "render", &id)?;
+        println!(
+            "submitted render job {id}: {} task(s), array {} ({done} of {total} tiles already done{})",
+            todo.len(),
+            index_list(&todo),
+            if stale > 0 {
+                format!(", {stale} stale parts to redo")
+            } else {
+                String::new()
+            }
+        );
+        dependency.insert(0, id);
+    }
+    if !active.is_empty() {
+        println!(
+            "{} task(s) of earlier submissions still queued or running: not resubmitted",
+            active.len()
+        );
+    }
+    let path = parts.join("merge.sbatch");
+    write_text(&path, &merge_script)?;
+    let dep_arg = format!("--dependency=afterok:{}", dependency.join(":"));
+    let extra: Vec<&str> = if dependency.is_empty() {
+        vec![]
+    } else {
+        vec![dep_arg.as_str()]
+    };
+    let merge_id = sbatch(&extra, &path)?;
+    record_job(&output, "merge", &merge_id)?;
+    println!(
+        "submitted merge job {merge_id}; parts in {}; progress: arbor farm status {}",
+        parts.display(),
+        output.display()
+    );
+    if args.wait {
+        wait_for_merge(&manifest, &merge_id, submitted_at)?;
+    }
+    Ok(())
+}
+
+/// Loads every scene (checking it, and that it has at least `tiles` rows)
+/// and builds the manifest with their hashes.
+fn load_scenes(scenes: &[PathBuf], tiles: u32, output: &Path) -> anyhow::Result<Manifest> {
+    let mut out = Vec::new();
+    let mut stems = HashSet::new();
+    for path in scenes {
+        let abs = path
+            .canonicalize()
+            .map_err(|e| InputError(format!("{}: cannot read scene file: {e}", path.display())))?;
+        // The same loader as `arbor render`, so the hash is the tasks' own.
+        let scene = crate::render::load_scene_or_model(&abs)?.scene;
+        if tiles > scene.height {
+            return Err(InputError(format!(
+                "{}: --tiles {tiles}: the image has {} rows; at most {} tiles",
+                path.display(),
+                scene.height,
+                scene.height
+            ))
+            .into());
+        }
+        let stem = abs
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        if stem.is_empty() || stem.contains(char::is_whitespace) {
+            return Err(InputError(format!(
+                "{}: a farm scene needs a file name without spaces",
+                path.display()
+            ))
+            .into());
+        }
+        if !stems.insert(stem.clone()) {
+            return Err(InputError(format!(
+                "{}: another scene has the same name `{stem}`; the pictures would collide",
+                path.display()
+            ))
+            .into());
+        }
+        let hash = arbor::partial::hash_hex(&arbor::partial::scene_hash(&scene));
+        out.push((hash, stem, abs));
+    }
+    Ok(Manifest {
+        tiles,
+        output: output.to_path_buf(),
+        scenes: out,
+    })
+}
+
+fn absolute(path: &Path) -> anyhow::Result<PathBuf> {
+    if path.is_absolute() {
+        return Ok(path.to_path_buf());
+    }
+    Ok(std::env::current_dir()
+        .context("finding the current directory")?
+        .join(path))
+}
+
+/// Quotes `s` for bash (single quotes).
+fn q(s: impl AsRef<std::ffi::OsStr>) -> String {
+    format!("'{}'", s.as_ref().to_string_lossy().replace('\'', r"'\''"))
+}
+
+fn common_options(s: &mut String, args: &SlurmArgs) {
+    if let Some(p) = &args.partition {
+        let _ = writeln!(s, "#SBATCH --partition={p}");
+    }
+    if let Some(t) = &args.time {
+        let _ = writeln!(s, "#SBATCH --time={t}");
+    }
+}
+
+/// The array job: task `i` renders tile `i mod N` of scene `i div N`.
+fn render_script(m: &Manifest, args: &SlurmArgs, arbor: &Path, todo: &[u32]) -> String {
+    let parts = parts_dir(&m.output);
+    let mut s = String::from("#!/bin/bash\n# arbor farm: render tasks, one per tile and scene (task i = tile i mod N of scene i div N).\n");
+    let _ = writeln!(s, "#SBATCH --job-name=arbor-render");
+    let _ = writeln!(s, "#SBATCH --array={}", index_list(todo));
+    let _ = writeln!(s, "#SBATCH --requeue");
+    let _ = writeln!(s, "#SBATCH --cpus-per-task={}", args.cpus_per_task);
+    let _ = writeln!(
+        s,
+        "#SBATCH --output={}",
+        parts.join("logs/render-%A_%a.out").display()
+    );
+    common_options(&mut s, args);
+    let _ = writeln!(s, "set -eu\ntiles={}", m.tiles);
+    let scenes: Vec<String> = m.scenes.iter().map(|x| q(&x.2)).collect();
+    let dirs: Vec<String> = m.scenes.iter().map(|x| q(parts.join(&x.1))).collect();
+    let _ = writeln!(s, "scenes=({})", scenes.join(" "));
+    let _ = writeln!(s, "parts=({})", dirs.join(" "));
+    let width = (m.tiles - 1).max(1).to_string().len();
+    let _ = writeln!(
+        s,
+        "i=$SLURM_ARRAY_TASK_ID\nscene=$((i / tiles))\nk=$((i % tiles))\npart=\"${{parts[$scene]}}/$(printf 'tile-%0{width}d-of-%d.part' \"$k\" \"$tiles\")\""
+    );
+    let _ = writeln!(
+        s,
+        "exec {} render \"${{scenes[$scene]}}\" --tile \"$k/$tiles\" --threads {} --accel {} --quiet --stats -o \"$part\"",
+        q(arbor),
+        args.cpus_per_task,
+        args.accel
+    );
+    s
+}
+
+/// The merge job: every scene's parts, listed by name so that a missing
+/// one is reported by name.
+fn merge_script(m: &Manifest, args: &SlurmArgs, arbor: &Path) -> String {
+    let parts = parts_dir(&m.output);
+    let mut s = String::from("#!/bin/bash\n# arbor farm: merge the parts of each scene.\n");
+    let _ = writeln!(s, "#SBATCH --job-name=arbor-merge");
+    let _ = writeln!(
+        s,
+        "#SBATCH --output={}",
+        parts.join("logs/merge-%j.out").display()
+    );
+    common_options(&mut s, args);
+    let _ = writeln!(s, "status=0");
+    for (i, _) in m.scenes.iter().enumerate() {
+        let files: Vec<String> = (0..m.tiles).map(|k| q(m.part(i, k))).collect();
+        let _ = writeln!(
+            s,
+            "{} merge {} -o {} || status=2",
+            q(arbor),
+            files.join(" "),
+            q(m.picture(i))
+        );
+    }
+    let _ = writeln!(s, "exit $status");
+    s
+}
+
+fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    arbor::film::atomic_write(path, |f| std::io::Write::write_all(f, text.as_bytes()))
+        .map_err(anyhow::Error::from)
+}
+
+fn record_job(output: &Path, kind: &str, id: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let path = parts_dir(output).join("jobs.txt");
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .with_context(|| format!("{}: cannot write", path.display()))?;
+    writeln!(f, "{kind} {id}").with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Submits `script`; returns the job id.
+fn sbatch(extra: &[&str], script: &Path) -> anyhow::Result<String> {
+    let out = Command::new("sbatch")
+        .arg("--parsable")
+        .args(extra)
+        .arg(script)
+        .output()
+        .map_err(|e| anyhow::anyhow!("cannot run sbatch (is Slurm installed here?): {e}"))?;
+    if !out.status.success() {
+        anyhow::bail!(
+            "sbatch {} failed: {}",
+            script.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+    }
+    // `--parsable` prints `ID` or `ID;CLUSTER`.
+    let text = String::from_utf8_lossy(&out.stdout);
+    let id = text.trim().split(';').next().unwrap_or("").to_string();
+    if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
+        anyhow::bail!("sbatch printed no job id: {}", text.trim());
+    }
+    Ok(id)
+}
+
+/// Polls the queue until the merge job has left it, then checks that it
+/// wrote every picture. A merge that can never start (a render task failed
+/// or was cancelled) is reported with the tiles that are missing.
+fn wait_for_merge(m: &Manifest, merge_id: &str, since: SystemTime) -> anyhow::Result<()> {
+    let poll = std::env::var("ARBOR_FARM_POLL_MS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(2000);
+    loop {
+        let Some(queue) = squeue() else {
+            anyhow::bail!("--wait: squeue failed; cannot follow job {merge_id}");
+        };
+        let Some(entry) = queue.iter().find(|e| e.job == merge_id) else {
+            break;
+        };
+        if entry.reason.contains("DependencyNeverSatisfied") {
+            let _ = Command::new("scancel").arg(merge_id).status();
+            anyhow::bail!(
+                "merge job {merge_id} cannot run: a render task failed or was cancelled; {}; run the same command again to resubmit them",
+                missing_summary(m)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(poll));
+    }
+    for s in 0..m.scenes.len() {
+        let picture = m.picture(s);
+        let fresh = std::fs::metadata(&picture)
+            .and_then(|md| md.modified())
+            .is_ok_and(|t| t >= since - Duration::from_secs(2));
+        if !fresh {
+            anyhow::bail!(
+                "merge job {merge_id} did not write {} ({}); see {}",
+                picture.display(),
+                missing_summary(m),
+                parts_dir(&m.output)
+                    .join(format!("logs/merge-{merge_id}.out"))
+                    .display()
+            );
+        }
+    }
+    println!("merged: {}", m.output.display());
+    Ok(())
+}
+
+/// `missing tiles: a 3, 5; b 0` or `all tiles done`.
+pub fn missing_summary(m: &Manifest) -> String {
+    let mut lines = Vec::new();
+    for (s, (_, stem, _)) in m.scenes.iter().enumerate() {
+        let missing: Vec<String> = (0..m.tiles)
+            .filter(|&k| m.part_state(s, k) != PartState::Done)
+            .map(|k| k.to_string())
+            .collect();
+        if !missing.is_empty() {
+            lines.push(format!("{stem} {}", missing.join(", ")));
+        }
+    }
+    if lines.is_empty() {
+        "all tiles done".into()
+    } else {
+        format!("missing tiles: {}", lines.join("; "))
+    }
+}
