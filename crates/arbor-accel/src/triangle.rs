@@ -232,6 +232,14 @@ impl TriangleMesh {
         let [a, b, c] = self.triangle(i);
         intersect_triangle(ray, a, b, c)
     }
+
+    /// [`TriangleMesh::intersect`] with the ray's shear computed once by the
+    /// caller (`RayShear::new(ray)`), for loops over many triangles.
+    #[inline]
+    pub fn intersect_sheared(&self, i: usize, ray: &Ray, shear: &RayShear) -> Option<TriangleHit> {
+        let [a, b, c] = self.triangle(i);
+        intersect_triangle_sheared(ray, shear, a, b, c)
+    }
 }
 
 impl Primitives for TriangleMesh {
