@@ -239,3 +239,37 @@ fn non_finite_vertices_are_dropped_not_traced() {
         .closest(DVec3::new(2.0, 2.0, 1.0), DVec3::NEG_Z, 0.0, f64::INFINITY)
         .is_none());
 }
+
+#[test]
+fn texture_replaces_the_diffuse_colour() {
+    // A 2x1 texture, red on the left (u < 0.5), blue on the right.
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("tex.png");
+    image::RgbImage::from_fn(2, 1, |x, _| {
+        if x == 0 {
+            image::Rgb([255, 0, 0])
+        } else {
+            image::Rgb([0, 0, 255])
+        }
+    })
+    .save(&png)
+    .unwrap();
+    let xml = format!(
+        r#"<scene>{CAM_2015}<surface type="Sphere"><shader type="Lambertian"><texture type="ClampTexture"><image>tex.png</image></texture></shader></surface>
+        <light type="DirectionalLight"><direction>0 0 1</direction></light></scene>"#
+    );
+    let scene = parse_scene(&xml, &dir.path().join("s.xml")).unwrap().scene;
+    let f = film(&scene);
+    // The sphere's u = (atan2(nx, nz) + pi) / 2pi is 0.5 facing the camera,
+    // so the lookup x = floor(0.5 * 2 + 0.5) = 1: the blue texel, lit by
+    // the light behind the camera; no red at all.
+    let centre = f.get(10, 10);
+    assert!(centre.z > 0.5 && centre.x == 0.0, "{centre:?}");
+    let missing = format!(
+        r#"<scene>{CAM_2015}<shader type="Lambertian"><texture type="ClampTexture"><image>none.png</image></texture></shader></scene>"#
+    );
+    let err = parse_scene(&missing, &dir.path().join("s.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("cannot read texture image"), "{err}");
+}

@@ -1,0 +1,15 @@
+//! Any text as a Cornell `.msh` mesh: a mesh with every index in range, or a
+//! located error; never a panic or a huge allocation.
+#![no_main]
+
+use std::path::Path;
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let text = String::from_utf8_lossy(data);
+    if let Ok(mesh) = arbor::mesh::msh::parse_msh(&text, Path::new("fuzz.msh")) {
+        let n = mesh.positions.len() as u32;
+        assert!(mesh.triangles.iter().flatten().all(|&i| i < n));
+    }
+});

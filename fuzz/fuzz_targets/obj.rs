@@ -1,0 +1,18 @@
+//! Any text as an OBJ file under both numbering rules: a mesh with every
+//! index in range, or a located error; never a panic.
+#![no_main]
+
+use std::path::Path;
+
+use arbor::mesh::obj::{parse_obj, ObjRule};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let text = String::from_utf8_lossy(data);
+    for rule in [ObjRule::Cornell2015, ObjRule::Fan] {
+        if let Ok(obj) = parse_obj(&text, Path::new("fuzz.obj"), rule) {
+            let n = obj.mesh.positions.len() as u32;
+            assert!(obj.mesh.triangles.iter().flatten().all(|&i| i < n));
+        }
+    }
+});
