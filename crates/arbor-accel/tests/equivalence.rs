@@ -263,3 +263,39 @@ fn names_round_trip() {
     assert!("octree".parse::<AccelKind>().is_err());
     assert_eq!(AccelKind::ALL.len(), 8);
 }
+
+#[test]
+fn non_finite_vertices_neither_panic_nor_diverge() {
+    let nan = f32::NAN;
+    let inf = f32::INFINITY;
+    let mut vertices = vec![
+        Vec3::new(nan, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(inf, 0.0, 1.0),
+        Vec3::new(0.0, -inf, 1.0),
+        Vec3::new(nan, nan, nan),
+    ];
+    let mut triangles = vec![[0, 1, 2], [3, 1, 2], [3, 4, 2], [5, 5, 5], [1, 2, 4]];
+    // Ordinary triangles around them.
+    for i in 0..30u32 {
+        let f = i as f32;
+        let c = Vec3::new((f * 0.37).sin(), (f * 0.71).cos(), (f * 0.13).sin()) * 3.0;
+        let b = vertices.len() as u32;
+        vertices.extend([c, c + Vec3::X * 0.5, c + Vec3::Y * 0.5]);
+        triangles.push([b, b + 1, b + 2]);
+    }
+    let mesh = TriangleMesh::new(vertices, triangles);
+    let n = mesh.triangles.len();
+    let list = List::build(&mesh);
+    let exact = |p: u32, r: &Ray| mesh.intersect(p as usize, r).map(|h| h.t);
+    for (kind, a) in structures(&mesh) {
+        for k in 0..64 {
+            let f = k as f32;
+            let o = Vec3::new((f * 0.9).sin(), (f * 0.4).cos(), 4.0) * 2.0;
+            let d = Vec3::new((f * 0.3).cos(), (f * 0.8).sin(), -3.0);
+            let ray = Ray::new(o, d, 0.0, f32::INFINITY);
+            check(kind.name(), &a, &list, n, &ray, &exact).unwrap();
+        }
+    }
+}
