@@ -287,7 +287,7 @@ fn every_merge_error_names_the_part() {
     );
     check(
         &["t0.part", "t1.part", "t2.part", "overlap.part"],
-        &["overlap.part", "overlapping", "t1.part"],
+        &["overlap.part", "overlapping", "t0.part"],
     );
     check(
         &["t0.part", "narrow.part", "t2.part"],

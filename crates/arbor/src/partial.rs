@@ -356,16 +356,16 @@ impl Assembly {
             }
         }
         for (path, h) in parts {
-            let why = if h.scene_hash != reference.scene_hash {
+            let why = if (h.width, h.height) != (reference.width, reference.height) {
+                Some(format!(
+                    "foreign part: image size {}x{}, the others {}x{}",
+                    h.width, h.height, reference.width, reference.height
+                ))
+            } else if h.scene_hash != reference.scene_hash {
                 Some(format!(
                     "foreign part: rendered from another scene or settings (scene hash {}, the others {})",
                     hex(&h.scene_hash[..8]),
                     hex(&reference.scene_hash[..8])
-                ))
-            } else if (h.width, h.height) != (reference.width, reference.height) {
-                Some(format!(
-                    "foreign part: image size {}x{}, the others {}x{}",
-                    h.width, h.height, reference.width, reference.height
                 ))
             } else if h.variant != reference.variant {
                 Some("foreign part: other scene conventions".into())

@@ -1,0 +1,393 @@
+//! `arbor farm` on a real Slurm cluster (started by `.ci/slurm.sh start`):
+//! a scene rendered as 8 tiles by an array job and merged is byte-identical
+//! to the same scene rendered in one process; a cancelled task is found and
+//! resubmitted alone by re-running the command; a merge lacking a part
+//! fails naming it. Without `sbatch` and a cluster answering `sinfo` the
+//! Slurm test reports itself skipped, unless `ARBOR_REQUIRE_SLURM=1`.
+//! The tests without a scheduler (dry runs, bad input) always run.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const ARBOR: &str = env!("CARGO_BIN_EXE_arbor");
+
+fn scene(light: &str) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<scene>
+  <camera><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>2</projDistance></camera>
+  <image>32 24</image>
+  <samples>4</samples>
+  <shader name="p" type="Phong"><diffuseColor>.9 .3 .1</diffuseColor><specularColor>1 1 1</specularColor><exponent>40</exponent></shader>
+  <surface type="Sphere"><shader ref="p"/><radius>0.7</radius></surface>
+  <surface type="Box"><minpt>-3 -2 -2</minpt><maxpt>3 -0.8 0</maxpt><shader type="Lambertian"><diffuseColor>.2 .6 .3</diffuseColor></shader></surface>
+  <light><position>{light}</position></light>
+</scene>
+"#
+    )
+}
+
+/// Runs a command with a deadline (a stuck scheduler must fail the test,
+/// not hang it).
+fn run(mut cmd: Command, secs: u64) -> Output {
+    let mut child = cmd
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let deadline = Instant::now() + Duration::from_secs(secs);
+    while child.try_wait().expect("wait").is_none() {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!(
+                "timed out after {secs} s: {cmd:?}\n{}{}",
+                String::from_utf8_lossy(&o.stdout),
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn arbor(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(ARBOR);
+    c.args(args)
+        .current_dir(dir)
+        .env("ARBOR_FARM_POLL_MS", "250");
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    run(c, 300)
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn ok(o: Output) -> Output {
+    assert!(o.status.success(), "failed: {}", text(&o));
+    o
+}
+
+fn tool(name: &str, args: &[&str]) -> Output {
+    let mut c = Command::new(name);
+    c.args(args);
+    run(c, 60)
+}
+
+fn slurm_answers() -> bool {
+    let up = |name: &str, args: &[&str]| {
+        Command::new(name)
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .output()
+            .is_ok_and(|o| o.status.success() && !o.stdout.is_empty())
+    };
+    up("sbatch", &["--version"]) && up("sinfo", &["-h", "-o", "%T"])
+}
+
+/// A folder with scenes `a.xml` and `b.xml` (different lights) and their
+/// full renders `a.png`, `b.png` made in one process.
+fn setup() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, light) in [("a", "3 4 5"), ("b", "-3 4 5")] {
+        fs::write(dir.path().join(format!("{name}.xml")), scene(light)).unwrap();
+        ok(arbor(
+            dir.path(),
+            &[
+                "render",
+                &format!("{name}.xml"),
+                "--quiet",
+                "-o",
+                &format!("{name}.png"),
+            ],
+            &[],
+        ));
+    }
+    dir
+}
+
+/// Waits until no task of `job` is in the queue.
+fn wait_gone(job: &str) {
+    let deadline = Instant::now() + Duration::from_secs(180);
+    loop {
+        let q = tool("squeue", &["-h", "-r", "-o", "%A"]);
+        if !String::from_utf8_lossy(&q.stdout)
+            .lines()
+            .any(|l| l.trim() == job)
+        {
+            return;
+        }
+        assert!(Instant::now() < deadline, "job {job} still queued");
+        std::thread::sleep(Duration::from_millis(300));
+    }
+}
+
+fn jobs(parts: &Path, kind: &str) -> Vec<String> {
+    fs::read_to_string(parts.join("jobs.txt"))
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.strip_prefix(&format!("{kind} ")).map(str::to_string))
+        .collect()
+}
+
+#[test]
+fn slurm_tiles_cancel_resume_and_missing_parts() {
+    if !slurm_answers() {
+        if std::env::var("ARBOR_REQUIRE_SLURM").as_deref() == Ok("1") {
+            panic!("ARBOR_REQUIRE_SLURM=1 but no Slurm cluster answers (sbatch, sinfo); start one with .ci/slurm.sh start DIR");
+        }
+        eprintln!("SKIPPED: no Slurm cluster (sbatch and sinfo); set ARBOR_REQUIRE_SLURM=1 to fail instead");
+        return;
+    }
+    let dir = setup();
+    let d = dir.path();
+
+    // 1. One scene, 8 tiles, through Slurm: the same bytes as one process.
+    let o = ok(arbor(
+        d,
+        &[
+            "farm",
+            "slurm",
+            "a.xml",
+            "--tiles",
+            "8",
+            "-o",
+            "out/a.png",
+            "--wait",
+        ],
+        &[],
+    ));
+    assert!(text(&o).contains("array 0-7"), "{}", text(&o));
+    assert!(fs::read(d.join("out/a.png")).unwrap() == fs::read(d.join("a.png")).unwrap());
+    let parts = d.join("out/a.png.parts");
+    assert_eq!(fs::read_dir(parts.join("a")).unwrap().count(), 8);
+    // Done: running it again submits nothing.
+    let o = ok(arbor(
+        d,
+        &["farm", "slurm", "a.xml", "--tiles", "8", "-o", "out/a.png"],
+        &[],
+    ));
+    assert!(text(&o).contains("nothing to submit"), "{}", text(&o));
+
+    // 2. A merge lacking a part fails naming it, through Slurm too.
+    let lost = parts.join("a/tile-3-of-8.part");
+    fs::remove_file(&lost).unwrap();
+    let mut c = Command::new("sbatch");
+    c.args(["--wait", "--parsable"])
+        .arg(parts.join("merge.sbatch"));
+    let o = run(c, 180);
+    assert!(!o.status.success(), "a merge without tile 3 succeeded");
+    let id = String::from_utf8_lossy(&o.stdout).trim().to_string();
+    let log = fs::read_to_string(parts.join(format!("logs/merge-{id}.out"))).unwrap();
+    assert!(
+        log.contains("tile-3-of-8.part") && log.contains("missing part"),
+        "{log}"
+    );
+    let o = arbor(
+        d,
+        &["merge", "out/a.png.parts/a/tile-0-of-8.part", "-o", "x.png"],
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("missing tiles 1, 2, 3, 4, 5, 6, 7 of 8"),
+        "{}",
+        text(&o)
+    );
+    let o = ok(arbor(d, &["farm", "status", "out/a.png"], &[]));
+    assert!(
+        text(&o).contains("7/8 tiles done") && text(&o).contains("1 missing [3]"),
+        "{}",
+        text(&o)
+    );
+    // The checkpoint: only tile 3 is rendered again.
+    let o = ok(arbor(
+        d,
+        &[
+            "farm",
+            "slurm",
+            "a.xml",
+            "--tiles",
+            "8",
+            "-o",
+            "out/a.png",
+            "--wait",
+        ],
+        &[],
+    ));
+    assert!(text(&o).contains("1 task(s), array 3 "), "{}", text(&o));
+    assert!(fs::read(d.join("out/a.png")).unwrap() == fs::read(d.join("a.png")).unwrap());
+
+    // 3. A sequence of two scenes, 4 tiles each, submitted held; one task
+    // is cancelled before it runs.
+    let seq = [
+        "farm", "slurm", "a.xml", "b.xml", "--tiles", "4", "-o", "frames",
+    ];
+    ok(arbor(d, &seq, &[("SBATCH_HOLD", "1")]));
+    let parts = d.join("frames.parts");
+    let render = jobs(&parts, "render").pop().unwrap();
+    let merge = jobs(&parts, "merge").pop().unwrap();
+    // Task 5 is scene b, tile 1.
+    assert!(tool("scancel", &[&format!("{render}_5")]).status.success());
+    assert!(tool("scontrol", &["release", &render]).status.success());
+    assert!(tool("scontrol", &["release", &merge]).status.success());
+    wait_gone(&render);
+    let o = ok(arbor(d, &["farm", "status", "frames"], &[]));
+    let status = text(&o);
+    assert!(
+        status.contains("a (") && status.contains("4/4 tiles done"),
+        "{status}"
+    );
+    assert!(
+        status.contains("3/4 tiles done") && status.contains("1 missing [1]"),
+        "{status}"
+    );
+    assert!(!d.join("frames/b.png").exists());
+    // Re-running the same command submits only the cancelled task.
+    let mut again = seq.to_vec();
+    again.push("--wait");
+    let o = ok(arbor(d, &again, &[]));
+    assert!(text(&o).contains("1 task(s), array 5 "), "{}", text(&o));
+    for name in ["a", "b"] {
+        assert!(
+            fs::read(d.join(format!("frames/{name}.png"))).unwrap()
+                == fs::read(d.join(format!("{name}.png"))).unwrap(),
+            "frame {name} differs from the one-process render"
+        );
+    }
+    // The stale merge job of the first submission is gone from the queue.
+    wait_gone(&merge);
+}
+
+/// Without a scheduler: `--dry-run` prints both scripts with the array,
+/// the requeue flag, the dependency-free merge of every part, and the
+/// absolute path of this very binary.
+#[test]
+fn dry_run_prints_the_scripts() {
+    let dir = setup();
+    let o = ok(arbor(
+        dir.path(),
+        &[
+            "farm",
+            "slurm",
+            "a.xml",
+            "b.xml",
+            "--tiles",
+            "3",
+            "--partition",
+            "gpu",
+            "--time",
+            "5:00",
+            "--dry-run",
+            "-o",
+            "seq",
+        ],
+        &[],
+    ));
+    let t = text(&o);
+    for needle in [
+        "#SBATCH --array=0-5",
+        "#SBATCH --requeue",
+        "#SBATCH --partition=gpu",
+        "#SBATCH --time=5:00",
+        "--tile \"$k/$tiles\"",
+        "seq.parts/b/tile-2-of-3.part",
+        "seq/b.png",
+        ARBOR,
+    ] {
+        assert!(t.contains(needle), "`{needle}` not in:\n{t}");
+    }
+    // A dry run writes nothing.
+    assert!(!dir.path().join("seq.parts").exists());
+}
+
+#[test]
+fn farm_input_errors() {
+    let dir = setup();
+    let d = dir.path();
+    fs::create_dir(d.join("other")).unwrap();
+    fs::copy(d.join("a.xml"), d.join("other/a.xml")).unwrap();
+    for (args, needle) in [
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "--tiles",
+                "25",
+                "-o",
+                "x.png",
+                "--dry-run",
+            ],
+            "at most 24",
+        ),
+        (
+            vec!["slurm", "a.xml", "--tiles", "0", "-o", "x.png", "--dry-run"],
+            "at least 1",
+        ),
+        (
+            vec!["slurm", "a.xml", "--tiles", "2", "-o", "x", "--dry-run"],
+            ".png or .exr",
+        ),
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "b.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "x.png",
+                "--dry-run",
+            ],
+            "folder",
+        ),
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "other/a.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "x",
+                "--dry-run",
+            ],
+            "same name",
+        ),
+        (
+            vec![
+                "slurm",
+                "none.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "x.png",
+                "--dry-run",
+            ],
+            "none.xml",
+        ),
+        (vec!["status", "nowhere.png"], "no farm render"),
+    ] {
+        let mut a = vec!["farm"];
+        a.extend(args.iter());
+        let o = arbor(d, &a, &[]);
+        assert_eq!(o.status.code(), Some(2), "{a:?}: {}", text(&o));
+        assert!(text(&o).contains(needle), "{a:?}: {}", text(&o));
+    }
+    let leftovers: Vec<PathBuf> = fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.to_string_lossy().contains(".parts"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
