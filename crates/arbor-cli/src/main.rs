@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod bench;
 mod compare;
 mod farm;
 mod info;
@@ -31,6 +32,9 @@ enum Command {
     Compare(compare::CompareArgs),
     /// Trace a batch of rays against a triangle mesh (the ray/hit file interface).
     Trace(trace::TraceArgs),
+    /// Benchmark the acceleration structures on a mesh or scene: build time,
+    /// size, shape, Mrays/s and nodes and tests per ray.
+    Bench(bench::BenchArgs),
     /// Assemble partial images (`render --tile`) into one PNG or EXR.
     Merge(merge::MergeArgs),
     /// Render on a cluster: submit tiles as Slurm array jobs, show progress.
@@ -69,6 +73,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Info(args) => info::run(args),
         Command::Trace(args) => trace::run(args),
+        Command::Bench(args) => bench::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Farm(args) => farm::run(args),
     };

@@ -8,11 +8,14 @@ use std::time::Instant;
 use anyhow::Context;
 use arbor::film::ImageFormat;
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::render::{render_region, Region};
+use arbor::render::Region;
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use arbor::render::render_region_with;
+use arbor::stats::{NoStats, RayKind, RenderStats};
 
 use crate::InputError;
 
@@ -41,6 +44,10 @@ pub struct RenderArgs {
     /// Most placements of shared (instanced) surfaces to accept.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PLACEMENTS)]
     pub max_instances: u64,
+    /// Also write the traversal cost of each pixel's camera rays (nodes
+    /// visited plus primitive tests) as a false-colour PNG with a colour bar.
+    #[arg(long, value_name = "FILE.png")]
+    pub heatmap: Option<PathBuf>,
     /// Render only tile K of N (K from 0 to N-1; the image cut into N
     /// horizontal bands of whole rows) to a `.part` file for `arbor merge`.
     #[arg(long, value_name = "K/N", value_parser = crate::farm::part::parse_tile, conflicts_with = "region")]
@@ -95,6 +102,9 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
         },
         |p| p.0,
     );
+    if let Some(path) = &args.heatmap {
+        check_heatmap_path(path)?;
+    }
     let loaded = start.elapsed();
 
     let flat = Flattened::new(&scene, args.max_instances).map_err(|e| InputError(e.to_string()))?;
@@ -108,9 +118,16 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     let total = region.area();
     let bar = progress_bar(total, args.quiet);
     let render_start = Instant::now();
-    let film = render_region(&scene, &tracer, region, &|n| bar.inc(n), &cancel);
+    let film = render_counted(
+        &scene,
+        &tracer,
+        region,
+        &|n| bar.inc(n),
+        &cancel,
+        args.stats,
+    );
     bar.finish_and_clear();
-    let film = match film {
+    let (film, ray_stats) = match film {
         Ok(f) => f,
         Err(_) => anyhow::bail!("interrupted: no image written"),
     };
@@ -142,6 +159,10 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
             start.elapsed().as_secs_f64()
         );
     }
+    let heatmap = match &args.heatmap {
+        Some(path) => Some(write_heatmap(&scene, &tracer, path)?),
+        None => None,
+    };
     if args.stats {
         let s = arbor_accel::Accelerator::stats(tracer.accel());
         eprintln!(
@@ -163,7 +184,93 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
             rendered.as_secs_f64()
         );
     }
+    if let Some(stats) = &ray_stats {
+        print_ray_stats(stats, heatmap.as_ref());
+    }
     Ok(())
+}
+
+// --- `--stats` (rays by kind) and `--heatmap` -------------------------------
+
+/// Renders `region`, counting every ray by kind when `count` is set. The two
+/// cases are two monomorphisations of the integrator, chosen once here, so
+/// an uncounted render pays nothing for the option.
+fn render_counted(
+    scene: &arbor::scene::Scene,
+    tracer: &Tracer,
+    region: arbor::render::Region,
+    progress: &(dyn Fn(u64) + Sync),
+    cancel: &AtomicBool,
+    count: bool,
+) -> Result<(arbor::film::Film, Option<RenderStats>), arbor::render::Cancelled> {
+    if count {
+        render_region_with::<RenderStats>(scene, tracer, region, progress, cancel)
+            .map(|(film, stats)| (film, Some(stats)))
+    } else {
+        render_region_with::<NoStats>(scene, tracer, region, progress, cancel)
+            .map(|(film, _)| (film, None))
+    }
+}
+
+/// `--heatmap` writes an 8-bit PNG; anything else is refused before rendering.
+fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
+    let is_png = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if is_png {
+        Ok(())
+    } else {
+        Err(InputError(format!(
+            "{}: --heatmap writes a .png file",
+            path.display()
+        )))
+    }
+}
+
+/// Writes the primary-ray cost heatmap; returns the map and how long it took.
+fn write_heatmap(
+    scene: &arbor::scene::Scene,
+    tracer: &Tracer,
+    path: &Path,
+) -> anyhow::Result<(arbor::heatmap::CostMap, std::time::Duration)> {
+    let start = Instant::now();
+    let map = arbor::heatmap::write_heatmap(scene, tracer, path)
+        .with_context(|| "writing the heatmap")?;
+    Ok((map, start.elapsed()))
+}
+
+/// The `--stats` lines about rays: count, nodes and tests per ray by kind.
+fn print_ray_stats(
+    stats: &RenderStats,
+    heatmap: Option<&(arbor::heatmap::CostMap, std::time::Duration)>,
+) {
+    for kind in RayKind::ALL {
+        let k = stats.kind(kind);
+        eprintln!(
+            "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray",
+            kind.name(),
+            k.rays,
+            k.nodes_per_ray(),
+            k.tests_per_ray()
+        );
+    }
+    let t = stats.total();
+    eprintln!(
+        "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray",
+        "all",
+        t.rays,
+        t.nodes_per_ray(),
+        t.tests_per_ray()
+    );
+    if let Some((map, took)) = heatmap {
+        eprintln!(
+            "heatmap: camera-ray cost mean {:.1}, max {:.0} (nodes + tests), {:.3} s",
+            map.mean(),
+            map.max(),
+            took.as_secs_f64()
+        );
+    }
 }
 
 /// Model import: a model file (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`, by

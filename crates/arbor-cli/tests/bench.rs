@@ -1,0 +1,370 @@
+//! `arbor bench` and `arbor render --heatmap/--stats` through the real
+//! binary: the JSON document on a small generated mesh, the plots, bad input
+//! (exit status 2, nothing written), and heatmaps for every accelerator.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Output};
+
+use serde_json::Value;
+
+fn arbor(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run arbor")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A closed, bumpy UV sphere as OBJ: `rings` x `segments` quads split into
+/// triangles (about 2 * rings * segments triangles).
+fn sphere_obj(rings: u32, segments: u32) -> String {
+    let mut s = String::new();
+    for i in 0..=rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..segments {
+            let phi = 2.0 * std::f64::consts::PI * j as f64 / segments as f64;
+            let r = 1.0 + 0.1 * (5.0 * phi).sin() * (3.0 * theta).sin();
+            let _ = writeln!(
+                s,
+                "v {} {} {}",
+                r * theta.sin() * phi.cos(),
+                r * theta.cos(),
+                r * theta.sin() * phi.sin()
+            );
+        }
+    }
+    let idx = |i: u32, j: u32| i * segments + (j % segments) + 1;
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1));
+            if i > 0 {
+                let _ = writeln!(s, "f {a} {b} {c}");
+            }
+            if i + 1 < rings {
+                let _ = writeln!(s, "f {b} {d} {c}");
+            }
+        }
+    }
+    s
+}
+
+const ACCELS: [&str; 7] = [
+    "bvh-center",
+    "bvh-median",
+    "bvh-sah",
+    "bvh-sweep",
+    "bvh-cluster",
+    "grid",
+    "kdtree",
+];
+
+#[test]
+fn json_has_every_field_with_sane_values() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(16, 24)).unwrap();
+    let out = arbor(
+        dir.path(),
+        &[
+            "bench",
+            "ball.obj",
+            "--accel",
+            "all",
+            "--json",
+            "b.json",
+            "--size",
+            "48",
+            "--repeat",
+            "1",
+            "--threads",
+            "2",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(table.contains("| accel |"), "{table}");
+    let doc: Value = serde_json::from_str(&fs::read_to_string(dir.path().join("b.json")).unwrap())
+        .expect("valid JSON");
+    assert_eq!(doc["input"], "ball.obj");
+    let prims = doc["primitives"].as_u64().unwrap();
+    assert_eq!(prims, 2 * 16 * 24 - 2 * 24);
+    assert_eq!(doc["threads"], 2);
+    let results = doc["results"].as_array().unwrap();
+    let names: Vec<&str> = results
+        .iter()
+        .map(|r| r["accel"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ACCELS);
+    for r in results {
+        let name = r["accel"].as_str().unwrap();
+        assert!(r["build_ms"].as_f64().unwrap() >= 0.0, "{name}");
+        let memory = r["memory_bytes"].as_u64().unwrap();
+        // Every structure references every triangle at least once.
+        assert!(memory >= 4 * prims, "{name}: {memory} bytes");
+        let nodes = r["nodes"].as_u64().unwrap();
+        let leaves = r["leaves"].as_u64().unwrap();
+        assert!(
+            leaves >= 1 && leaves <= nodes,
+            "{name}: {leaves} of {nodes}"
+        );
+        let depth = r["max_depth"].as_u64().unwrap();
+        if name == "grid" {
+            // A flat structure: cells, not a tree.
+            assert!(r["sah_cost"].is_null() || r["sah_cost"].is_number());
+        } else {
+            assert!(depth >= 1, "{name}");
+            assert!(r["sah_cost"].as_f64().unwrap() > 0.0, "{name}");
+        }
+        let rays = r["rays"].as_object().unwrap();
+        assert_eq!(
+            rays.keys().map(String::as_str).collect::<Vec<_>>().len(),
+            3,
+            "{name}"
+        );
+        let primary = &rays["primary"];
+        assert_eq!(primary["rays"], 48 * 48);
+        for kind in ["primary", "shadow", "diffuse"] {
+            let k = &rays[kind];
+            let n = k["rays"].as_u64().unwrap();
+            assert!(n > 0, "{name} {kind}");
+            assert!(k["mrays_per_s"].as_f64().unwrap() > 0.0, "{name} {kind}");
+            // Every ray that enters the scene visits at least the root.
+            let nodes = k["nodes_per_ray"].as_f64().unwrap();
+            assert!(
+                nodes > 0.5 && nodes < nodes_bound(prims),
+                "{name} {kind}: {nodes}"
+            );
+            let tests = k["tests_per_ray"].as_f64().unwrap();
+            assert!(
+                tests > 0.0 && tests < prims as f64,
+                "{name} {kind}: {tests}"
+            );
+        }
+        // The camera sees the ball: hits make the secondary rays.
+        assert_eq!(rays["shadow"]["rays"], rays["diffuse"]["rays"]);
+        assert!(rays["shadow"]["rays"].as_u64().unwrap() < 48 * 48);
+    }
+    // Every structure traces the same rays.
+    let first = &results[0]["rays"];
+    for r in results {
+        for kind in ["primary", "shadow", "diffuse"] {
+            assert_eq!(r["rays"][kind]["rays"], first[kind]["rays"]);
+        }
+    }
+}
+
+/// A generous bound on nodes per ray: far below visiting every node of a
+/// tree over `prims` primitives, so a traversal that degenerates fails.
+fn nodes_bound(prims: u64) -> f64 {
+    prims as f64
+}
+
+#[test]
+fn ray_kinds_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(8, 12)).unwrap();
+    let out = arbor(
+        dir.path(),
+        &[
+            "bench",
+            "ball.obj",
+            "--accel",
+            "grid,bvh-sah",
+            "--rays",
+            "shadow",
+            "--json",
+            "s.json",
+            "--plot",
+            "p.svg",
+            "--size",
+            "16",
+            "--repeat",
+            "1",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let doc: Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("s.json")).unwrap()).unwrap();
+    let results = doc["results"].as_array().unwrap();
+    assert_eq!(results.len(), 2);
+    assert_eq!(results[0]["accel"], "grid");
+    let rays = results[0]["rays"].as_object().unwrap();
+    assert_eq!(rays.keys().collect::<Vec<_>>(), ["shadow"]);
+    let svg = fs::read_to_string(dir.path().join("p.svg")).unwrap();
+    assert!(svg.starts_with("<svg"), "{}", &svg[..svg.len().min(80)]);
+    assert!(svg.contains("bvh-sah") && svg.contains("Mrays/s"));
+
+    let out = arbor(
+        dir.path(),
+        &[
+            "bench", "ball.obj", "--accel", "kdtree", "--plot", "p.png", "--size", "16",
+            "--repeat", "1",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let png = image::open(dir.path().join("p.png")).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (1100, 480));
+    // Not blank: bars and text are drawn.
+    let non_white = png.pixels().filter(|p| p.0 != [255, 255, 255]).count();
+    assert!(non_white > 5000, "{non_white}");
+}
+
+#[test]
+fn bad_input_exits_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(4, 6)).unwrap();
+    fs::write(dir.path().join("bad.obj"), "v 0 0 0\nf 1 2 oops\n").unwrap();
+    let cases: &[&[&str]] = &[
+        &["bench", "ball.obj", "--accel", "octree", "--json", "o.json"],
+        &["bench", "ball.obj", "--accel", "grid,", "--json", "o.json"],
+        &["bench", "missing.obj", "--json", "o.json"],
+        &["bench", "missing.xml", "--json", "o.json"],
+        &["bench", "bad.obj", "--json", "o.json"],
+        &["bench", "ball.obj", "--rays", "camera", "--json", "o.json"],
+        &["bench", "ball.obj", "--rays", "", "--json", "o.json"],
+        &["bench", "ball.obj", "--plot", "o.gif", "--json", "o.json"],
+        &["bench", "ball.obj", "--threads", "0", "--json", "o.json"],
+        &["bench", "ball.obj", "--size", "0", "--json", "o.json"],
+        &["bench", "ball.txt", "--json", "o.json"],
+    ];
+    for args in cases {
+        let out = arbor(dir.path(), args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(!stderr(&out).contains("panicked"), "{args:?}");
+        assert!(!dir.path().join("o.json").exists(), "{args:?}");
+    }
+}
+
+/// A small scene with a mesh, a sphere and a glass ball (so the ray
+/// statistics see every kind of ray).
+fn scene(width: u32, height: u32) -> String {
+    format!(
+        r#"<?xml version="1.0"?>
+<scene>
+  <camera>
+    <viewPoint>0 0.5 4</viewPoint>
+    <viewDir>0 -0.1 -1</viewDir>
+    <projDistance>2</projDistance>
+  </camera>
+  <image>{width} {height}</image>
+  <shader name="grey" type="Lambertian"><diffuseColor>0.7 0.7 0.7</diffuseColor></shader>
+  <surface type="Mesh"><shader ref="grey"/><data>ball.obj</data></surface>
+  <surface type="Sphere">
+    <shader type="Glass"><refractiveIndex>1.5</refractiveIndex></shader>
+    <center>0.5 0.3 1.5</center><radius>0.3</radius>
+  </surface>
+  <surface type="Box"><shader ref="grey"/><minPt>-3 -1.5 -3</minPt><maxPt>3 -1.2 3</maxPt></surface>
+  <light><position>3 4 5</position></light>
+</scene>
+"#
+    )
+}
+
+#[test]
+fn heatmap_for_every_accelerator() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(10, 16)).unwrap();
+    fs::write(dir.path().join("s.xml"), scene(64, 48)).unwrap();
+    let mut plain = None;
+    for accel in ACCELS.iter().chain(&["list"]) {
+        let heat = format!("heat-{accel}.png");
+        let out = arbor(
+            dir.path(),
+            &[
+                "render",
+                "s.xml",
+                "-o",
+                "img.png",
+                "--accel",
+                accel,
+                "--heatmap",
+                &heat,
+                "--quiet",
+            ],
+        );
+        assert!(out.status.success(), "{accel}: {}", stderr(&out));
+        let img = image::open(dir.path().join("img.png")).unwrap().to_rgb8();
+        assert_eq!(img.dimensions(), (64, 48));
+        // -o still gets the normal image, the same for every structure.
+        match &plain {
+            None => plain = Some(img),
+            Some(p) => assert!(p == &img, "{accel}: the image changed"),
+        }
+        let h = image::open(dir.path().join(&heat)).unwrap().to_rgb8();
+        // The picture plus the colour bar panel; short pictures are padded
+        // to fit the bar's labels.
+        assert_eq!(h.dimensions(), (64 + 90, 120), "{accel}");
+        // The bar runs from viridis yellow at the top to purple at the bottom.
+        let bar_x = 64 + 10 + 4;
+        let top = h.get_pixel(bar_x, 17).0;
+        let bottom = h.get_pixel(bar_x, 120 - 18).0;
+        assert!(top[1] > 200 && top[2] < 90, "{accel}: top of bar {top:?}");
+        assert!(
+            bottom[0] < 90 && bottom[2] > 70,
+            "{accel}: bottom {bottom:?}"
+        );
+        // Labels: white pixels right of the bar.
+        let white = (bar_x + 14..h.width())
+            .flat_map(|x| (0..h.height()).map(move |y| (x, y)))
+            .filter(|&(x, y)| h.get_pixel(x, y).0 == [255, 255, 255])
+            .count();
+        assert!(white > 40, "{accel}: {white} label pixels");
+        // The map is not uniform: the mesh costs more than empty sky (brute
+        // force costs the same everywhere, by design).
+        if *accel == "list" {
+            continue;
+        }
+        let mut colours: Vec<[u8; 3]> = (0..48)
+            .flat_map(|y| (0..64).map(move |x| (x, y)))
+            .map(|(x, y)| h.get_pixel(x, y).0)
+            .collect();
+        colours.sort();
+        colours.dedup();
+        assert!(colours.len() > 3, "{accel}: {} colours", colours.len());
+    }
+}
+
+#[test]
+fn stats_report_rays_by_kind() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(10, 16)).unwrap();
+    fs::write(dir.path().join("s.xml"), scene(40, 30)).unwrap();
+    let out = arbor(
+        dir.path(),
+        &["render", "s.xml", "-o", "img.png", "--stats", "--quiet"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    let rays = |kind: &str| -> u64 {
+        let line = err
+            .lines()
+            .find(|l| l.starts_with(&format!("rays {kind} ")))
+            .unwrap_or_else(|| panic!("no {kind} line in:\n{err}"));
+        line.split_whitespace().nth(2).unwrap().parse().unwrap()
+    };
+    assert_eq!(rays("camera"), 40 * 30);
+    for kind in ["shadow", "reflection", "refraction"] {
+        assert!(rays(kind) > 0, "{kind}:\n{err}");
+    }
+    assert!(err.contains("time: load"), "{err}");
+    assert!(err.contains("nodes/ray") && err.contains("tests/ray"));
+}
+
+#[test]
+fn heatmap_bad_extension_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(4, 6)).unwrap();
+    fs::write(dir.path().join("s.xml"), scene(8, 8)).unwrap();
+    let out = arbor(
+        dir.path(),
+        &["render", "s.xml", "-o", "img.png", "--heatmap", "h.jpg"],
+    );
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(!dir.path().join("img.png").exists());
+    assert!(!dir.path().join("h.jpg").exists());
+}
