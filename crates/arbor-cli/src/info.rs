@@ -15,7 +15,8 @@ use crate::InputError;
 /// Arguments of `arbor info`.
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// The scene file (Cornell XML). Without one, the built-in default scene.
+    /// The scene file (Cornell XML) or a model (.obj, .ply, .stl, .gltf,
+    /// .glb). Without one, the built-in default scene.
     pub input: Option<PathBuf>,
     /// Show at most this many levels of the hierarchy.
     #[arg(long, default_value_t = 6)]
@@ -25,6 +26,7 @@ pub struct InfoArgs {
 /// Runs `arbor info`.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let (name, scene) = match &args.input {
+        Some(path) if arbor::model::is_model_path(path) => return run_model(path, args.depth),
         Some(path) => {
             let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
             for w in &loaded.warnings {
@@ -38,6 +40,31 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         ),
     };
     print!("{}", describe(&name, &scene, args.depth)?);
+    Ok(())
+}
+
+/// Model files (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`): what the file
+/// holds (nodes, meshes, placements, triangles unique and as placed), then
+/// the report of the framed scene `arbor render` would draw.
+fn run_model(path: &std::path::Path, depth: usize) -> anyhow::Result<()> {
+    let (scene, model) =
+        arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
+    for w in &model.warnings {
+        eprintln!("{w}");
+    }
+    let s = model.stats;
+    println!("model       {}", path.display());
+    println!("nodes       {}", s.nodes);
+    println!(
+        "meshes      {} ({} placed more than once)",
+        s.meshes, s.shared_meshes
+    );
+    println!("placed      {} times", s.placements);
+    println!(
+        "triangles   {} unique, {} as placed",
+        s.unique_triangles, s.instanced_triangles
+    );
+    print!("{}", describe(&path.display().to_string(), &scene, depth)?);
     Ok(())
 }
 
@@ -90,10 +117,8 @@ fn count_shared(surfaces: &[Surface], seen: &mut std::collections::HashSet<usize
     for s in surfaces {
         match s {
             Surface::Group(g) => count_shared(&g.children, seen),
-            Surface::Instance(inner) => {
-                if seen.insert(std::sync::Arc::as_ptr(inner) as usize) {
-                    count_shared(std::slice::from_ref(inner.as_ref()), seen);
-                }
+            Surface::Instance(inner) if seen.insert(std::sync::Arc::as_ptr(inner) as usize) => {
+                count_shared(std::slice::from_ref(inner.as_ref()), seen);
             }
             _ => {}
         }

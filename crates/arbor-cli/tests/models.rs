@@ -103,3 +103,22 @@ fn assimp_models_render_and_invalid_ones_fail() {
         assert!(!dir.path().join("x.png").exists());
     }
 }
+
+#[test]
+fn info_reports_the_engine_structure() {
+    let Some(models) = models() else { return };
+    let glb = models.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let o = arbor(dir.path(), &["info", glb.to_str().unwrap()]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("nodes       82\n"), "{out}");
+    assert!(
+        out.contains("meshes      29 (14 placed more than once)\n"),
+        "{out}"
+    );
+    assert!(
+        out.contains("triangles   75730 unique, 121496 as placed\n"),
+        "{out}"
+    );
+}

@@ -256,3 +256,137 @@ fn ply_and_stl_serve_as_xml_mesh_data() {
     let loaded = arbor::xml::load_scene(&scene).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(triangles(&loaded.scene.surfaces), 3);
 }
+
+/// A glTF file with one triangle mesh in a data-URI buffer, placed by the
+/// given nodes (JSON), with `extra` spliced into the top level.
+fn gltf_json(nodes: &str, scene_nodes: &str, extra: &str) -> String {
+    // Three float positions then three u16 indices (0, 1, 2), padded.
+    let mut bin: Vec<u8> = Vec::new();
+    for v in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in [0u16, 1, 2, 0] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut uri = String::new();
+    for c in bin.chunks(3) {
+        let n = (c[0] as u32) << 16
+            | (*c.get(1).unwrap_or(&0) as u32) << 8
+            | *c.get(2).unwrap_or(&0) as u32;
+        for k in 0..4 {
+            if k <= c.len() {
+                uri.push(B64[(n >> (18 - 6 * k) & 63) as usize] as char);
+            } else {
+                uri.push('=');
+            }
+        }
+    }
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":{scene_nodes}}}],"nodes":{nodes},
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
+"accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+{{"bufferView":1,"componentType":5123,"count":3,"type":"SCALAR"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":6}}],
+"buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{uri}"}}]{extra}}}"#,
+        bin.len()
+    )
+}
+
+#[test]
+fn gltf_instancing_cameras_and_broken_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // One mesh placed by three nodes (one a child with a matrix): stored once.
+    let ok = write(
+        "ok.gltf",
+        &gltf_json(
+            r#"[{"children":[1,2],"translation":[1,0,0]},{"mesh":0,"scale":[2,2,2]},{"mesh":0,"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,5,1]},{"mesh":0},{"camera":0,"translation":[0,0,10]}]"#,
+            "[0,3,4]",
+            r#","cameras":[{"type":"perspective","perspective":{"yfov":0.5,"aspectRatio":2.0,"znear":0.1}}]"#,
+        ),
+    );
+    let (scene, model) = load_model_scene(&ok).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(model.stats.nodes, 5);
+    assert_eq!(model.stats.meshes, 1);
+    assert_eq!(model.stats.placements, 3);
+    assert_eq!(model.stats.shared_meshes, 1);
+    assert_eq!(model.stats.unique_triangles, 1);
+    assert_eq!(model.stats.instanced_triangles, 3);
+    let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    assert_eq!(flat.placements.len(), 3);
+    // The child's placement composes its parent's translation and its own scale.
+    let (lo, hi) = frame::bounds(&model.surfaces).unwrap();
+    assert_eq!((lo.x, hi.x, hi.y, hi.z), (0.0, 3.0, 2.0, 5.0));
+    // The file's camera: at z = 10 looking down -z, yfov 0.5 at distance 1.
+    assert_eq!(scene.camera.view_point, glam::DVec3::new(0.0, 0.0, 10.0));
+    assert!((scene.camera.view_height - 2.0 * 0.25f64.tan()).abs() < 1e-6);
+    assert_eq!(scene.width, 2 * scene.height);
+
+    for (name, text, words) in [
+        (
+            "cycle.gltf",
+            gltf_json(r#"[{"children":[1]},{"children":[0],"mesh":0}]"#, "[0]", ""),
+            "cycle",
+        ),
+        (
+            "index.gltf",
+            gltf_json(r#"[{"mesh":0}]"#, "[0]", "")
+                .replace(
+                    r#""count":3,"type":"SCALAR""#,
+                    r#""count":3,"type":"SCALAR","byteOffset":0"#,
+                )
+                .replace("AAABAAIA", "AAABAAkA"),
+            "out of range",
+        ),
+        (
+            "range.gltf",
+            gltf_json(r#"[{"mesh":7}]"#, "[0]", ""),
+            "glTF",
+        ),
+        (
+            "missing.gltf",
+            gltf_json(r#"[{"mesh":0}]"#, "[0]", "")
+                .replace("data:application/octet-stream;base64,", "nowhere.bin#"),
+            "buffer",
+        ),
+        (
+            "short.gltf",
+            gltf_json(r#"[{"mesh":0}]"#, "[0]", "")
+                .replace(r#""byteLength":36}"#, r#""byteLength":360}"#),
+            "beyond",
+        ),
+        ("empty.glb", String::new(), "empty"),
+    ] {
+        let p = write(name, &text);
+        let e = err(&p);
+        assert!(e.message.contains(words), "{name}: {e}");
+        assert_eq!(e.path, p);
+    }
+}
+
+#[test]
+fn the_engine_keeps_its_shared_meshes() {
+    let Some(dir) = models() else { return };
+    let path = dir.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+    let (scene, model) = load_model_scene(&path).unwrap();
+    let s = model.stats;
+    assert_eq!((s.nodes, s.meshes, s.shared_meshes), (82, 29, 14));
+    assert!(s.instanced_triangles > 120_000 && s.unique_triangles < s.instanced_triangles);
+    let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    // Every placement of a shared mesh stays a placement, not a copy.
+    assert_eq!(flat.instanced_primitives() - 12, s.instanced_triangles);
+    assert_eq!(flat.unique_primitives() - 12, s.unique_triangles);
+    for bad in [
+        "RecursiveNodes/RecursiveNodes.gltf",
+        "IndexOutOfRange/IndexOutOfRange.gltf",
+        "MissingBin/BoxTextured.gltf",
+    ] {
+        let e = err(&dir.join("glTF2").join(bad));
+        assert!(e.to_string().starts_with(dir.to_str().unwrap()), "{e}");
+    }
+}

@@ -55,6 +55,8 @@ pub struct ModelStats {
     pub meshes: u64,
     /// Placements of meshes (equal to `meshes` without instancing).
     pub placements: u64,
+    /// Meshes placed more than once (shared, stored once).
+    pub shared_meshes: u64,
     /// Triangles stored once per mesh.
     pub unique_triangles: u64,
     /// Triangles as placed in the scene (each placement counted).
@@ -135,6 +137,7 @@ fn single_mesh(mesh: MeshData) -> Model {
             nodes: 0,
             meshes: 1,
             placements: 1,
+            shared_meshes: 0,
             unique_triangles: n,
             instanced_triangles: n,
         },
