@@ -88,6 +88,15 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     let mesh = TriangleMesh::new(mesh.positions, mesh.triangles);
     let rays = read_rays(&args.rays)?;
     let mut output = args.hits.as_deref().map(AtomicOutput::create).transpose()?;
+    if let Some(out) = &output {
+        // Ctrl-C ends the process without running destructors: remove the
+        // temporary file ourselves so an interrupted run leaves nothing.
+        let temp = out.temp.clone();
+        let _ = ctrlc::set_handler(move || {
+            let _ = std::fs::remove_file(&temp);
+            std::process::exit(130);
+        });
+    }
 
     let threads = match args.threads {
         Some(n) => n as usize,
