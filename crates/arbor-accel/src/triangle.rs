@@ -74,7 +74,9 @@ impl RayShear {
 /// origin and `m` the largest sheared vertex coordinate) is recomputed in
 /// `f64`, so a reported hit really lies on the
 /// triangle (to about `2^-48 s`), not merely near it; the distance `t` comes
-/// from the triangle's plane in `f64`. Both matter to acceleration
+/// from the triangle's plane in `f64`, or, when that point falls outside the
+/// triangle's box (cancellation next to a huge vertex), from the barycentric
+/// combination of the vertices' distances. Both matter to acceleration
 /// structures, which can only promise to offer a primitive where it really
 /// is. Degenerate (zero-area) triangles and zero directions never hit.
 #[inline]
@@ -119,7 +121,7 @@ pub fn intersect_triangle_sheared(
         .max(cy.abs());
     let bound = m * scale * (1.0 / 262_144.0);
     let smallest = u.abs().min(v.abs()).min(w.abs());
-    let (_, v, w) = if smallest > bound {
+    let (u, v, w) = if smallest > bound {
         // Signs are certain.
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
@@ -143,7 +145,29 @@ pub fn intersect_triangle_sheared(
     if nd == 0.0 {
         return None;
     }
-    let t = (n.dot(q0 - o) / nd) as f32;
+    let mut t = n.dot(q0 - o) / nd;
+    // The plane equation cancels badly when the vertices' magnitudes differ
+    // wildly (a vertex at 1e30 swallows the other edges' small components
+    // in `n`), and can then put the hit far from the triangle: a hit must
+    // be reported only where the triangle is, or structures that offer it
+    // only there disagree with brute force. So the hit point must lie in the
+    // triangle's box, up to a per-axis margin of 2^-30 of the point's own
+    // terms |o| + |d t| (its rounding error when `t` is accurate, far below
+    // f32 precision; the box corners are exact in f64). Otherwise `t` is
+    // recomputed as the barycentric combination of the vertices' distances
+    // along the dominant axis, which puts the point on the triangle by
+    // construction (vertex weights 0, 1, 0 give that vertex exactly). Only
+    // hits pay for the check, and a false alarm merely picks the other,
+    // equally valid formula.
+    let point = o + d * t;
+    let lo = q0.min(q1).min(q2);
+    let hi = q0.max(q1).max(q2);
+    let margin = (o.abs() + (d * t).abs()) * f64::from(2.0f32.powi(-30));
+    if !(point.cmpge(lo - margin).all() && point.cmple(hi + margin).all()) {
+        let (k, oz) = (s.kz, o[s.kz]);
+        t = (u * (q0[k] - oz) + v * (q1[k] - oz) + w * (q2[k] - oz)) / d[k];
+    }
+    let t = t as f32;
     if !(t >= ray.tmin && t <= ray.tmax) {
         return None;
     }
