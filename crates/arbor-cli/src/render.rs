@@ -41,6 +41,10 @@ pub struct RenderArgs {
     /// Print timings and structure statistics.
     #[arg(long)]
     pub stats: bool,
+    /// When interrupted (Ctrl-C), write the tiles finished so far instead of
+    /// no file at all.
+    #[arg(long)]
+    pub partial: bool,
     /// Most placements of shared (instanced) surfaces to accept.
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PLACEMENTS)]
     pub max_instances: u64,
@@ -129,7 +133,16 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let (film, ray_stats) = match film {
         Ok(f) => f,
-        Err(_) => anyhow::bail!("interrupted: no image written"),
+        Err(cancelled) => {
+            if args.partial && part.is_none() {
+                cancelled.partial.write(&output, scene.variant)?;
+                anyhow::bail!(
+                    "interrupted: wrote the finished tiles to {} (--partial)",
+                    output.display()
+                );
+            }
+            anyhow::bail!("interrupted: no image written")
+        }
     };
     let rendered = render_start.elapsed();
     match part {

@@ -474,3 +474,69 @@ fn bunny_field_generator_makes_a_nested_instanced_scene() {
     let out = arbor(dir.path(), &["render", "f.xml", "-q"]);
     assert!(out.status.success(), "{}", stderr(&out));
 }
+
+/// A scene slow enough under brute force to be interrupted mid-render.
+fn slow_scene() -> String {
+    let mut body = String::new();
+    for i in 0..6000 {
+        let (x, y) = ((i % 100) as f64 * 0.03 - 1.5, (i / 100) as f64 * 0.04 - 1.2);
+        body.push_str(&format!(
+            r#"<surface type="Sphere"><center>{x} {y} 0</center><radius>0.03</radius></surface>"#
+        ));
+    }
+    scene_2010(&body).replace("16 12", "600 400")
+}
+
+fn interrupt_after(
+    case: &Case,
+    extra: &[&str],
+    wait: std::time::Duration,
+) -> (Output, std::time::Duration) {
+    let mut args = vec!["render", "s.xml", "-q", "--accel", "list", "-o", "slow.png"];
+    args.extend_from_slice(extra);
+    let child = Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(&args)
+        .current_dir(case.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(wait);
+    let sent = std::time::Instant::now();
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    (out, sent.elapsed())
+}
+
+#[test]
+fn ctrl_c_stops_within_a_second_and_leaves_no_file() {
+    let case = Case::new(&slow_scene());
+    let (out, took) = interrupt_after(&case, &[], std::time::Duration::from_millis(800));
+    assert!(took < std::time::Duration::from_secs(1), "took {took:?}");
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("interrupted: no image written"),
+        "{}",
+        stderr(&out)
+    );
+    let names: Vec<_> = fs::read_dir(case.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.to_string_lossy().contains("slow")),
+        "{names:?}"
+    );
+    // With --partial, the finished tiles are written.
+    let (out, _) = interrupt_after(
+        &case,
+        &["--partial"],
+        std::time::Duration::from_millis(1500),
+    );
+    assert!(stderr(&out).contains("--partial"), "{}", stderr(&out));
+    let img = image::open(case.path().join("slow.png")).unwrap();
+    assert_eq!((img.width(), img.height()), (600, 400));
+}
