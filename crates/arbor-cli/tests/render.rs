@@ -540,3 +540,76 @@ fn ctrl_c_stops_within_a_second_and_leaves_no_file() {
     let img = image::open(case.path().join("slow.png")).unwrap();
     assert_eq!((img.width(), img.height()), (600, 400));
 }
+
+/// The hostile inputs of the hardening issue: each one a clean error (exit 2,
+/// located message, no output) within a second, with nothing large allocated
+/// on the promise of a header.
+#[test]
+fn hostile_inputs_fail_fast() {
+    let huge_msh = "2000000000\r\n1\r\nvertices\r\n0\r\n0\r\n0\r\ntriangles\r\n0\r\n0\r\n0\r\n";
+    let cam2015 = r#"<camera type="PerspectiveCamera"><viewPoint>0 0 5</viewPoint></camera>"#;
+    let cases: Vec<(String, &str, &str)> = vec![
+        (
+            scene_2010("").replace("16 12", "200000 200000"),
+            "s.xml:8:3: ",
+            "out of range",
+        ),
+        (
+            scene_2010("<samples>4000000000</samples>"),
+            "s.xml:12:1: ",
+            "<samples> must be between",
+        ),
+        (
+            scene_2010("").replace("16 12", "-16 12"),
+            "s.xml:8:3: ",
+            "out of range",
+        ),
+        (
+            scene_2010(
+                r#"<defs><surface type="Group" name="a"><surface ref="a"/></surface></defs>"#,
+            ),
+            "s.xml:12:7: ",
+            "cycle: a -> a",
+        ),
+        (
+            scene_2010(r#"<surface type="Mesh"><data>huge.msh</data></surface>"#),
+            "huge.msh:",
+            "header",
+        ),
+        (
+            format!(
+                r#"<scene>{cam2015}<image>8 8</image><surface type="Mesh"><data>zero.obj</data></surface></scene>"#
+            ),
+            "zero.obj:4: ",
+            "OBJ indices start at 1",
+        ),
+        (
+            format!(
+                r#"<scene>{cam2015}<image>8 8</image><surface type="Mesh"><data>far.obj</data></surface></scene>"#
+            ),
+            "far.obj:4: ",
+            "out of range",
+        ),
+    ];
+    for (xml, location, needle) in cases {
+        let case = Case::new(&xml);
+        fs::write(case.path().join("huge.msh"), huge_msh).unwrap();
+        fs::write(
+            case.path().join("zero.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+        )
+        .unwrap();
+        fs::write(
+            case.path().join("far.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+        )
+        .unwrap();
+        let start = std::time::Instant::now();
+        case.expect_error(location, needle);
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(1),
+            "{location}: {:?}",
+            start.elapsed()
+        );
+    }
+}
