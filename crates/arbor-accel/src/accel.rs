@@ -2,7 +2,8 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::{
-    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, List, Primitives, Ray,
+    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, List, Primitives,
+    Ray, WideBvh,
 };
 
 /// What every acceleration structure answers: the candidates a ray may hit.
@@ -63,6 +64,9 @@ pub enum AccelKind {
     BvhSweep,
     /// BVH by bottom-up PLOC clustering (`bvh-cluster`).
     BvhCluster,
+    /// 4-wide BVH collapsed from the binned-SAH tree, SIMD box tests
+    /// (`bvh-wide`).
+    BvhWide,
     /// Uniform grid (`grid`).
     Grid,
     /// SAH k-d tree (`kdtree`).
@@ -78,6 +82,7 @@ impl AccelKind {
         AccelKind::BvhSah,
         AccelKind::BvhSweep,
         AccelKind::BvhCluster,
+        AccelKind::BvhWide,
         AccelKind::Grid,
         AccelKind::KdTree,
     ];
@@ -91,6 +96,7 @@ impl AccelKind {
             AccelKind::BvhSah => "bvh-sah",
             AccelKind::BvhSweep => "bvh-sweep",
             AccelKind::BvhCluster => "bvh-cluster",
+            AccelKind::BvhWide => "bvh-wide",
             AccelKind::Grid => "grid",
             AccelKind::KdTree => "kdtree",
         }
@@ -158,6 +164,8 @@ pub enum Accel {
     Grid(Grid),
     /// The k-d tree.
     KdTree(KdTree),
+    /// The 4-wide BVH.
+    Wide(WideBvh),
 }
 
 /// Parameters of every structure, for [`Accel::build_with`].
@@ -190,6 +198,7 @@ impl Accel {
             AccelKind::List => Accel::List(List::build(prims)),
             AccelKind::Grid => Accel::Grid(Grid::build(prims, &params.grid)),
             AccelKind::KdTree => Accel::KdTree(KdTree::build(prims, &params.kdtree)),
+            AccelKind::BvhWide => Accel::Wide(WideBvh::build(prims, &params.bvh)),
             _ => unreachable!("every other kind is a BVH"),
         }
     }
@@ -206,6 +215,7 @@ impl Accelerator for Accel {
             Accel::Bvh(a) => a.closest(ray, counters, hit),
             Accel::Grid(a) => a.closest(ray, counters, hit),
             Accel::KdTree(a) => a.closest(ray, counters, hit),
+            Accel::Wide(a) => a.closest(ray, counters, hit),
         }
     }
 
@@ -219,6 +229,7 @@ impl Accelerator for Accel {
             Accel::Bvh(a) => a.occluded(ray, counters, hit),
             Accel::Grid(a) => a.occluded(ray, counters, hit),
             Accel::KdTree(a) => a.occluded(ray, counters, hit),
+            Accel::Wide(a) => a.occluded(ray, counters, hit),
         }
     }
 
@@ -228,6 +239,7 @@ impl Accelerator for Accel {
             Accel::Bvh(a) => a.stats(),
             Accel::Grid(a) => a.stats(),
             Accel::KdTree(a) => a.stats(),
+            Accel::Wide(a) => a.stats(),
         }
     }
 }

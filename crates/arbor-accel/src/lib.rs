@@ -16,7 +16,8 @@
 //! really is ([`intersect_triangle`] guarantees this for triangles).
 //!
 //! Structures ([`AccelKind`] names them): [`List`] (brute force), [`Bvh`] with
-//! five builders ([`BvhBuilder`]), the uniform [`Grid`] and the SAH [`KdTree`];
+//! five builders ([`BvhBuilder`]), the 4-wide [`WideBvh`] collapsed from the
+//! binned-SAH tree, the uniform [`Grid`] and the SAH [`KdTree`];
 //! [`Accel`] holds any of them. Bounding volumes: [`Aabb`], [`BoundingSphere`],
 //! [`Obb`]. The design, error bounds, constants and measurements are written up
 //! in `docs/acceleration.md`.
@@ -39,7 +40,7 @@ mod util;
 
 pub use aabb::{Aabb, SLAB_TFAR_SCALE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
-pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams};
+pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, WideBvh};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
 pub use kdtree::{KdParams, KdTree};

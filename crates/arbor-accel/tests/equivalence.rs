@@ -261,7 +261,7 @@ fn names_round_trip() {
     }
     assert_eq!(AccelKind::DEFAULT, AccelKind::BvhSah);
     assert!("octree".parse::<AccelKind>().is_err());
-    assert_eq!(AccelKind::ALL.len(), 8);
+    assert_eq!(AccelKind::ALL.len(), 9);
 }
 
 #[test]

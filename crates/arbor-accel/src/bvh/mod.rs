@@ -9,6 +9,9 @@
 mod ploc;
 mod sweep;
 mod topdown;
+mod wide;
+
+pub use wide::WideBvh;
 
 use glam::{Vec3, Vec3A, Vec4};
 
