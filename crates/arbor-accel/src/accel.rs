@@ -58,14 +58,14 @@ pub enum AccelKind {
     BvhCenter,
     /// BVH split at the centroid median (`bvh-median`).
     BvhMedian,
-    /// BVH by binned SAH (`bvh-sah`), the default.
+    /// BVH by binned SAH (`bvh-sah`), the readable reference of `bvh-wide`.
     BvhSah,
     /// BVH by full-sweep SAH (`bvh-sweep`), the quality reference.
     BvhSweep,
     /// BVH by bottom-up PLOC clustering (`bvh-cluster`).
     BvhCluster,
     /// 4-wide BVH collapsed from the binned-SAH tree, SIMD box tests
-    /// (`bvh-wide`).
+    /// (`bvh-wide`), the default: 1.3-1.8x faster than `bvh-sah` on buddha100k.
     BvhWide,
     /// Uniform grid (`grid`).
     Grid,
@@ -103,7 +103,7 @@ impl AccelKind {
     }
 
     /// The structure used when the user names none.
-    pub const DEFAULT: AccelKind = AccelKind::BvhSah;
+    pub const DEFAULT: AccelKind = AccelKind::BvhWide;
 
     /// The BVH builder this kind names, if it is a BVH.
     pub fn bvh_builder(self) -> Option<BvhBuilder> {

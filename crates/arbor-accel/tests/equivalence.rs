@@ -259,7 +259,7 @@ fn names_round_trip() {
     for k in AccelKind::ALL {
         assert_eq!(k.name().parse::<AccelKind>().unwrap(), *k);
     }
-    assert_eq!(AccelKind::DEFAULT, AccelKind::BvhSah);
+    assert_eq!(AccelKind::DEFAULT, AccelKind::BvhWide);
     assert!("octree".parse::<AccelKind>().is_err());
     assert_eq!(AccelKind::ALL.len(), 9);
 }

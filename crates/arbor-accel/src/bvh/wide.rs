@@ -102,18 +102,35 @@ impl Lanes {
         }
     }
 
+    /// Whether [`Lanes::hit`] needs its NaN fix-up for `ray`.
+    fn needs_nan_care(ray: &Ray) -> bool {
+        !(ray.origin.is_finite() && ray.dir.is_finite() && ray.inv_dir().is_finite())
+    }
+
     /// Entry distances of the four children and which of them the ray
     /// touches before `tmax` (already widened by the caller).
+    ///
+    /// `NAN_SAFE = false` is the fast path for rays whose origin and
+    /// direction are finite and whose direction has no zero component:
+    /// then `(bound - origin) * inv` is never NaN (no `0 * inf`, and `inv`
+    /// is never 0), so the on-plane fix-up (four of every thirteen lane
+    /// operations) can be skipped with the same results.
     #[inline(always)]
-    fn hit(&self, n: &Node4, tmax: f32) -> (Vec4, BVec4A) {
+    fn hit<const NAN_SAFE: bool>(&self, n: &Node4, tmax: f32) -> (Vec4, BVec4A) {
         let mut near = self.tmin;
         let mut far = Vec4::INFINITY;
         for a in 0..3 {
             let t0 = (n.min[a] - self.origin[a]) * self.inv[a];
             let t1 = (n.max[a] - self.origin[a]) * self.inv[a];
-            let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
-            let lo = Vec4::select(on_plane, Vec4::NEG_INFINITY, t0.min(t1));
-            let hi = Vec4::select(on_plane, Vec4::INFINITY, t0.max(t1));
+            let (lo, hi) = if NAN_SAFE {
+                let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
+                (
+                    Vec4::select(on_plane, Vec4::NEG_INFINITY, t0.min(t1)),
+                    Vec4::select(on_plane, Vec4::INFINITY, t0.max(t1)),
+                )
+            } else {
+                (t0.min(t1), t0.max(t1))
+            };
             near = near.max(lo);
             far = far.min(hi);
         }
@@ -206,6 +223,59 @@ impl Accelerator for WideBvh {
         if self.nodes.is_empty() {
             return;
         }
+        if Lanes::needs_nan_care(&ray) {
+            self.closest_in::<true, C, F>(ray, counters, hit);
+        } else {
+            self.closest_in::<false, C, F>(ray, counters, hit);
+        }
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        for &p in &self.unbounded {
+            counters.test();
+            if hit(p, ray) {
+                return true;
+            }
+        }
+        if self.nodes.is_empty() {
+            return false;
+        }
+        if Lanes::needs_nan_care(ray) {
+            self.occluded_in::<true, C, F>(ray, counters, hit)
+        } else {
+            self.occluded_in::<false, C, F>(ray, counters, hit)
+        }
+    }
+
+    fn stats(&self) -> AccelStats {
+        AccelStats {
+            nodes: self.nodes.len(),
+            leaves: self
+                .nodes
+                .iter()
+                .flat_map(|n| n.count.iter())
+                .filter(|&&c| c > 0)
+                .count(),
+            max_depth: self.max_depth,
+            memory_bytes: std::mem::size_of::<Self>()
+                + self.nodes.len() * std::mem::size_of::<Node4>()
+                + (self.prims.len() + self.unbounded.len()) * 4,
+            sah_cost: self.sah_cost,
+        }
+    }
+}
+
+impl WideBvh {
+    #[inline(always)]
+    fn closest_in<const NAN_SAFE: bool, C, F>(&self, mut ray: Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
         let lanes = Lanes::new(&ray);
         // (child, count, entry distance), as in the node's slots.
         let mut stack = Stack::<(u32, u32, f32)>::new();
@@ -222,7 +292,7 @@ impl Accelerator for WideBvh {
                 }
             } else {
                 let n = &self.nodes[child as usize];
-                let (tnear, mask) = lanes.hit(n, widen_up(ray.tmax));
+                let (tnear, mask) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
                 let bits = mask.bitmask() & valid_mask(n);
                 if bits.is_power_of_two() {
                     // One child entered (the common case deep in the tree):
@@ -258,20 +328,17 @@ impl Accelerator for WideBvh {
         }
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    #[inline(always)]
+    fn occluded_in<const NAN_SAFE: bool, C, F>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        mut hit: F,
+    ) -> bool
     where
         C: Counters,
         F: FnMut(u32, &Ray) -> bool,
     {
-        for &p in &self.unbounded {
-            counters.test();
-            if hit(p, ray) {
-                return true;
-            }
-        }
-        if self.nodes.is_empty() {
-            return false;
-        }
         let lanes = Lanes::new(ray);
         let wide = widen_up(ray.tmax);
         let mut stack = Stack::<(u32, u32)>::new();
@@ -288,7 +355,7 @@ impl Accelerator for WideBvh {
                 }
             } else {
                 let n = &self.nodes[child as usize];
-                let (_, mask) = lanes.hit(n, wide);
+                let (_, mask) = lanes.hit::<NAN_SAFE>(n, wide);
                 let mut bits = mask.bitmask() & valid_mask(n);
                 // Any order will do: the first blocker ends the query.
                 while bits != 0 {
@@ -301,23 +368,6 @@ impl Accelerator for WideBvh {
                 return false;
             };
             (child, count) = next;
-        }
-    }
-
-    fn stats(&self) -> AccelStats {
-        AccelStats {
-            nodes: self.nodes.len(),
-            leaves: self
-                .nodes
-                .iter()
-                .flat_map(|n| n.count.iter())
-                .filter(|&&c| c > 0)
-                .count(),
-            max_depth: self.max_depth,
-            memory_bytes: std::mem::size_of::<Self>()
-                + self.nodes.len() * std::mem::size_of::<Node4>()
-                + (self.prims.len() + self.unbounded.len()) * 4,
-            sah_cost: self.sah_cost,
         }
     }
 }
