@@ -41,6 +41,10 @@ pub struct RenderArgs {
     /// Print timings and structure statistics.
     #[arg(long)]
     pub stats: bool,
+    /// Wrap every top-level object in a bounding volume tested before the
+    /// object (the lecture's bounded surface); `--stats` shows what it saved.
+    #[arg(long, value_name = "sphere|aabb|obb")]
+    pub bvol: Option<arbor::tracer::BoundingVolumeKind>,
     /// When interrupted (Ctrl-C), write the tiles finished so far instead of
     /// no file at all.
     #[arg(long)]
@@ -111,10 +115,17 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     }
     let loaded = start.elapsed();
 
-    let flat = Flattened::new(&scene, args.max_instances).map_err(|e| InputError(e.to_string()))?;
+    let flat = match args.bvol {
+        Some(_) => Flattened::bounded(&scene, args.max_instances),
+        None => Flattened::new(&scene, args.max_instances),
+    }
+    .map_err(|e| InputError(e.to_string()))?;
     let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
     let build_start = Instant::now();
-    let tracer = Tracer::from_flattened(flat, args.accel);
+    let tracer = match args.bvol {
+        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
+        None => Tracer::from_flattened(flat, args.accel),
+    };
     let built = build_start.elapsed();
 
     let cancel = Arc::new(AtomicBool::new(false));
@@ -190,6 +201,17 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
             s.max_depth,
             tracer.accel_memory_bytes()
         );
+        if let Some(volume) = args.bvol {
+            let v = tracer.volume_stats();
+            let load =
+                |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
+            eprintln!(
+                "bounding volumes ({volume:?}): {} tests, {} missed, {} surface tests saved",
+                load(&v.tests),
+                load(&v.misses),
+                load(&v.saved)
+            );
+        }
         eprintln!(
             "time: load {:.3} s, build {:.3} s, render {:.3} s",
             loaded.as_secs_f64(),

@@ -584,9 +584,50 @@ pub struct Flattened {
     pub shared: Vec<FlatScene>,
     /// Every placement of shared geometry.
     pub placements: Vec<Placement>,
+    /// With [`Flattened::bounded`]: the placements that are whole top-level
+    /// objects (the lecture's bounded surfaces), by index into `placements`.
+    pub objects: Vec<u32>,
 }
 
 impl Flattened {
+    /// Flattens like [`Flattened::new`], but keeps every top-level surface
+    /// together as one object: its geometry becomes its own shared geometry,
+    /// placed once (identity) and listed in [`Flattened::objects`], so that
+    /// the tracer can wrap it in a bounding volume (the lecture's bounded
+    /// surface: skip the whole object when the ray misses its volume).
+    pub fn bounded(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
+        let mut out = Flattened::new(
+            &Scene {
+                surfaces: Vec::new(),
+                ..scene.clone()
+            },
+            max_placements,
+        )?;
+        for surface in &scene.surfaces {
+            let single = Scene {
+                surfaces: vec![surface.clone()],
+                ..scene.clone()
+            };
+            let part = Flattened::new(&single, max_placements)?;
+            let offset = out.shared.len() as u32;
+            out.placements
+                .extend(part.placements.into_iter().map(|p| Placement {
+                    geometry: p.geometry + offset,
+                    ..p
+                }));
+            out.shared.extend(part.shared);
+            if !part.world.is_empty() {
+                out.objects.push(out.placements.len() as u32);
+                out.placements.push(Placement {
+                    inverse: glam::DAffine3::IDENTITY,
+                    geometry: out.shared.len() as u32,
+                });
+                out.shared.push(part.world);
+            }
+        }
+        Ok(out)
+    }
+
     /// Flattens `scene`, keeping multiply-placed surfaces shared; fails
     /// before allocating when more than `max_placements` placements would
     /// result.
@@ -611,6 +652,7 @@ impl Flattened {
                 world: FlatScene::empty(scene.variant),
                 shared: Vec::new(),
                 placements: Vec::with_capacity(total as usize),
+                objects: Vec::new(),
             },
         };
         for surface in &scene.surfaces {

@@ -38,7 +38,12 @@
 //! so far. Each level applies the precision argument above to its own
 //! coordinates.
 
-use arbor_accel::{Accel, AccelKind, Accelerator, Counters, NoCounters, Ray, RayCounts, Vec3};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use arbor_accel::{
+    Aabb, Accel, AccelKind, Accelerator, BoundingSphere, Counters, NoCounters, Obb, Ray, RayCounts,
+    Vec3,
+};
 use glam::{DAffine3, DVec3};
 use rayon::prelude::*;
 
@@ -219,6 +224,74 @@ impl Found {
     }
 }
 
+/// The bounding volume wrapped around each top-level object by
+/// `arbor render --bvol` (the lecture's bounded surface).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoundingVolumeKind {
+    /// A bounding sphere (Ritter's fit).
+    Sphere,
+    /// An axis-aligned box (slab test).
+    Aabb,
+    /// An oriented box along the principal axes of the object's points.
+    Obb,
+}
+
+impl std::str::FromStr for BoundingVolumeKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "sphere" => Ok(BoundingVolumeKind::Sphere),
+            "aabb" => Ok(BoundingVolumeKind::Aabb),
+            "obb" => Ok(BoundingVolumeKind::Obb),
+            _ => Err(format!(
+                "unknown bounding volume '{s}'; expected sphere, aabb or obb"
+            )),
+        }
+    }
+}
+
+/// A fitted bounding volume; its tests are conservative (`arbor-accel`).
+enum Volume {
+    Sphere(BoundingSphere),
+    Aabb(Aabb),
+    Obb(Obb),
+}
+
+impl Volume {
+    fn fit(kind: BoundingVolumeKind, boxes: &[Aabb]) -> Volume {
+        let all = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
+        let corners = || boxes.iter().flat_map(|b| b.corners()).collect::<Vec<_>>();
+        match kind {
+            BoundingVolumeKind::Aabb => Volume::Aabb(all),
+            BoundingVolumeKind::Sphere => Volume::Sphere(BoundingSphere::from_points(&corners())),
+            BoundingVolumeKind::Obb => match Obb::from_points(&corners()) {
+                Some(obb) => Volume::Obb(obb),
+                None => Volume::Aabb(all),
+            },
+        }
+    }
+
+    fn hit(&self, ray: &Ray) -> bool {
+        match self {
+            Volume::Sphere(s) => s.intersect(ray).is_some(),
+            Volume::Aabb(b) => b.intersect(ray, ray.inv_dir()).is_some(),
+            Volume::Obb(o) => o.intersect(ray).is_some(),
+        }
+    }
+}
+
+/// What the bounding volumes of `--bvol` did.
+#[derive(Debug, Default)]
+pub struct VolumeStats {
+    /// Rays tested against an object's volume.
+    pub tests: AtomicU64,
+    /// Of those, rays that missed it.
+    pub misses: AtomicU64,
+    /// Primitive tests skipped because the ray missed the volume (the
+    /// object's primitive count, per miss: what brute force inside it would cost).
+    pub saved: AtomicU64,
+}
+
 /// A flattened scene with its acceleration structures: ray queries in `f64`.
 pub struct Tracer {
     world: FlatScene,
@@ -227,6 +300,10 @@ pub struct Tracer {
     top: Accel,
     frame: Frame,
     kind: AccelKind,
+    /// Per placement, the bounding volume that gates it (`--bvol`); empty
+    /// when there are none.
+    volumes: Vec<Option<Volume>>,
+    volume_stats: VolumeStats,
 }
 
 impl Tracer {
@@ -238,9 +315,59 @@ impl Tracer {
                 world: scene,
                 shared: Vec::new(),
                 placements: Vec::new(),
+                objects: Vec::new(),
             },
             kind,
         )
+    }
+
+    /// Like [`Tracer::from_flattened`], and wraps each object of
+    /// [`Flattened::bounded`] in a bounding volume of `volume`, tested before
+    /// anything inside it.
+    pub fn from_flattened_bounded(
+        flat: Flattened,
+        kind: AccelKind,
+        volume: BoundingVolumeKind,
+    ) -> Tracer {
+        let objects = flat.objects.clone();
+        let mut tracer = Tracer::from_flattened(flat, kind);
+        let mut volumes: Vec<Option<Volume>> = (0..tracer.placements.len()).map(|_| None).collect();
+        for o in objects {
+            let level = &tracer.shared[tracer.placements[o as usize].geometry as usize];
+            // Objects are placed by the identity: their boxes are world boxes.
+            let boxes: Vec<Aabb> = (0..level.scene.len())
+                .map(|i| {
+                    let (a, b) = level.scene.bounds(i);
+                    to_f32_box(a, b, tracer.frame.pad)
+                })
+                .collect();
+            volumes[o as usize] = Some(Volume::fit(volume, &boxes));
+        }
+        tracer.volumes = volumes;
+        tracer
+    }
+
+    /// What the bounding volumes did so far (all zero without `--bvol`).
+    pub fn volume_stats(&self) -> &VolumeStats {
+        &self.volume_stats
+    }
+
+    /// Whether placement `p` may be entered by `ray` (the top-level `f32`
+    /// ray): always, unless a bounding volume gates it and the ray misses it.
+    fn enters(&self, p: usize, ray: &Ray) -> bool {
+        let Some(Some(volume)) = self.volumes.get(p) else {
+            return true;
+        };
+        self.volume_stats.tests.fetch_add(1, Ordering::Relaxed);
+        if volume.hit(ray) {
+            return true;
+        }
+        self.volume_stats.misses.fetch_add(1, Ordering::Relaxed);
+        let level = &self.shared[self.placements[p].geometry as usize];
+        self.volume_stats
+            .saved
+            .fetch_add(level.scene.len() as u64, Ordering::Relaxed);
+        false
     }
 
     /// Builds structures of `kind` at both levels: one per shared geometry,
@@ -274,6 +401,8 @@ impl Tracer {
             top,
             frame,
             kind,
+            volumes: Vec::new(),
+            volume_stats: VolumeStats::default(),
         }
     }
 
@@ -325,13 +454,16 @@ impl Tracer {
         let n_world = self.world.len() as u32;
         let mut best: Option<(u32, Found)> = None;
         let mut inner = C::default();
-        self.top.closest(&ray, counters, |prim, _| {
+        self.top.closest(&ray, counters, |prim, ray32| {
             let best_so_far = best.map(|(p, f)| (p, f.t()));
             let found = if prim < n_world {
                 let c = self.world.intersect(prim as usize, o, d, tmin, tmax)?;
                 Found::World(prim, c)
             } else {
                 let placement = prim - n_world;
+                if !self.enters(placement as usize, ray32) {
+                    return None;
+                }
                 let p = &self.placements[placement as usize];
                 let (lo, ld) = (
                     p.inverse.transform_point3(o),

@@ -162,3 +162,44 @@ fn the_default_scene_is_instanced_and_renders_like_copies() {
     small.samples_per_side = 1;
     assert_same_picture(&small);
 }
+
+#[test]
+fn bounded_surfaces_skip_work_and_change_nothing() {
+    use arbor::tracer::BoundingVolumeKind;
+    let scene = load(&format!(
+        r#"{HEAD}<surface type="Group"><rotate>0 30 0</rotate>
+             <surface type="Box"><minPt>-3 0 0</minPt><maxPt>-2 1 1</maxPt></surface>
+             <surface type="Sphere"><center>-2 2 0</center><radius>0.5</radius></surface></surface>
+           <surface type="Sphere"><center>2 1 0</center></surface>
+           <surface type="Group"><scale>2 0.5 1</scale><surface type="Sphere"><center>0 -1 -2</center></surface></surface>
+           </scene>"#
+    ));
+    let reference = pixels(
+        &scene,
+        &Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::List),
+    );
+    for volume in [
+        BoundingVolumeKind::Sphere,
+        BoundingVolumeKind::Aabb,
+        BoundingVolumeKind::Obb,
+    ] {
+        for kind in [AccelKind::List, AccelKind::DEFAULT] {
+            let flat = Flattened::bounded(&scene, 100).unwrap();
+            assert_eq!(flat.objects.len(), 3);
+            let tracer = Tracer::from_flattened_bounded(flat, kind, volume);
+            assert!(pixels(&scene, &tracer) == reference, "{volume:?} {kind}");
+            let v = tracer.volume_stats();
+            let tests = v.tests.load(std::sync::atomic::Ordering::Relaxed);
+            let misses = v.misses.load(std::sync::atomic::Ordering::Relaxed);
+            assert!(
+                tests > 0 && misses <= tests,
+                "{volume:?} {kind}: {tests} {misses}"
+            );
+            // Brute force offers every object to every ray: the volumes must
+            // turn many away. (A BVH culls by boxes first, so they may not.)
+            if kind == AccelKind::List {
+                assert!(misses > tests / 4, "{volume:?}: {misses} of {tests}");
+            }
+        }
+    }
+}
