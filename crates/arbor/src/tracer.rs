@@ -579,3 +579,49 @@ fn cull_distance(t: f64) -> f32 {
     let up = if (f as f64) < t { f.next_up() } else { f };
     up.next_up()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::surface::transformed::rotation_degrees;
+
+    #[test]
+    fn rotated_placement_box_contains_every_transformed_vertex() {
+        // A thin tilted rod of vertices, its local box, and a rotated placement.
+        let vertices: Vec<DVec3> = (0..50)
+            .map(|i| {
+                DVec3::new(
+                    i as f64 * 0.1,
+                    (i as f64 * 0.37).sin(),
+                    -0.5 + (i % 7) as f64 * 0.1,
+                )
+            })
+            .collect();
+        let lo = vertices.iter().fold(DVec3::INFINITY, |a, v| a.min(*v));
+        let hi = vertices.iter().fold(DVec3::NEG_INFINITY, |a, v| a.max(*v));
+        for angles in [
+            DVec3::new(30.0, 40.0, 50.0),
+            DVec3::new(-90.0, 0.0, 45.0),
+            DVec3::new(0.0, 180.0, 0.0),
+        ] {
+            let m = DAffine3::from_mat4(rotation_degrees(angles))
+                * DAffine3::from_translation(DVec3::new(3.0, -1.0, 2.0));
+            let (a, b) = world_box(&m, lo, hi);
+            for v in &vertices {
+                let w = m.transform_point3(*v);
+                assert!(
+                    w.cmpge(a - 1e-12).all() && w.cmple(b + 1e-12).all(),
+                    "{angles}: {w} outside {a}..{b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn cull_distance_rounds_up() {
+        for t in [0.0, 1e-9, 0.1, 1.0 / 3.0, 12345.678, 1e30] {
+            assert!(cull_distance(t) as f64 > t, "{t}");
+        }
+        assert_eq!(cull_distance(f64::INFINITY), f32::INFINITY);
+    }
+}
