@@ -3,13 +3,13 @@
 //! building the whole CLI.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K]
+//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P]
 //! ```
 
 use std::time::Instant;
 
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, Accelerator, NoCounters, Ray, RayShear,
+    intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray, RayShear,
     TriangleMesh, Vec3,
 };
 use rayon::prelude::*;
@@ -83,7 +83,10 @@ fn main() {
     for kind in args[2].split(',') {
         let kind: AccelKind = kind.parse().unwrap();
         let start = Instant::now();
-        let accel = pool.install(|| Accel::build(kind, &mesh));
+        let mut params = AccelParams::default();
+        params.bvh.max_leaf_size = opt("--leaf", params.bvh.max_leaf_size);
+        params.bvh.traversal_cost = opt("--ct-percent", 100) as f32 / 100.0;
+        let accel = pool.install(|| Accel::build_with(kind, &mesh, &params));
         let build = start.elapsed().as_secs_f64() * 1e3;
         let mut times = Vec::new();
         let mut sum = 0u64;
