@@ -9,8 +9,8 @@
 use std::time::Instant;
 
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray, RayShear,
-    TriangleMesh, Vec3,
+    intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray,
+    RayShear, TriangleMesh, Vec3,
 };
 use rayon::prelude::*;
 
