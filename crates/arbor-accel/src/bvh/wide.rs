@@ -161,28 +161,35 @@ impl WideBvh {
         wide.nodes.push(Node4::EMPTY);
         while let Some((b, w, depth)) = todo.pop() {
             wide.max_depth = wide.max_depth.max(depth);
-            let mut kids: Vec<usize> = if bn[b].is_leaf() {
+            // Up to four children in a fixed array (no allocation per node).
+            let mut kids = [0usize; 4];
+            let mut len = if bn[b].is_leaf() {
                 // Only a root leaf gets here: one child, itself.
-                vec![b]
+                kids[0] = b;
+                1
             } else {
-                vec![b + 1, bn[b].offset as usize]
+                kids[0] = b + 1;
+                kids[1] = bn[b].offset as usize;
+                2
             };
-            while kids.len() < 4 {
-                let open = kids
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &k)| !bn[k].is_leaf())
-                    .max_by(|x, y| {
-                        let ax = bn[*x.1].aabb().surface_area();
-                        let ay = bn[*y.1].aabb().surface_area();
-                        ax.total_cmp(&ay)
-                    })
-                    .map(|(i, _)| i);
+            while len < 4 {
+                let mut open = None;
+                let mut best = f32::NEG_INFINITY;
+                for (i, &k) in kids[..len].iter().enumerate() {
+                    if !bn[k].is_leaf() {
+                        let area = bn[k].aabb().surface_area();
+                        if area > best || open.is_none() {
+                            (open, best) = (Some(i), area);
+                        }
+                    }
+                }
                 let Some(i) = open else { break };
-                let k = kids.swap_remove(i);
-                kids.push(k + 1);
-                kids.push(bn[k].offset as usize);
+                let k = kids[i];
+                kids[i] = k + 1;
+                kids[len] = bn[k].offset as usize;
+                len += 1;
             }
+            let kids = &kids[..len];
             let mut node = Node4::EMPTY;
             for (lane, &k) in kids.iter().enumerate() {
                 let n = &bn[k];
