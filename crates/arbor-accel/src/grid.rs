@@ -5,7 +5,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::util::{prepare, widen_up, Mailbox};
+use crate::util::{offer_any, offer_closest, prepare, widen_up, Mailbox};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Grid build parameters.
@@ -280,12 +280,7 @@ impl Accelerator for Grid {
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
-        for &p in &self.unbounded {
-            counters.test();
-            if let Some(t) = hit(p, &ray) {
-                ray.tmax = ray.tmax.min(t);
-            }
-        }
+        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let walk_ray = ray;
         let mut mailbox = Mailbox::new();
         self.walk(&walk_ray, counters, |prims, exit, counters| {
@@ -308,11 +303,8 @@ impl Accelerator for Grid {
         C: Counters,
         F: FnMut(u32, &Ray) -> bool,
     {
-        for &p in &self.unbounded {
-            counters.test();
-            if hit(p, ray) {
-                return true;
-            }
+        if offer_any(&self.unbounded, ray, counters, &mut hit) {
+            return true;
         }
         let mut found = false;
         let mut mailbox = Mailbox::new();

@@ -9,7 +9,7 @@
 //! Straddling primitives are clipped to each child with
 //! [`Primitives::clipped_bounds`] ("perfect splits").
 
-use crate::util::{prepare, widen_down, widen_up, Mailbox};
+use crate::util::{offer_any, offer_closest, prepare, widen_down, widen_up, Mailbox};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Traversal stack entries; the depth limit stays below this.
@@ -409,12 +409,7 @@ impl Accelerator for KdTree {
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
-        for &p in &self.unbounded {
-            counters.test();
-            if let Some(t) = hit(p, &ray) {
-                ray.tmax = ray.tmax.min(t);
-            }
-        }
+        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let mut mailbox = Mailbox::new();
         // A hit found here may lie beyond this leaf (the primitive reaches
         // into later leaves); the walk's culling by `tmax` only stops once
@@ -437,11 +432,8 @@ impl Accelerator for KdTree {
         C: Counters,
         F: FnMut(u32, &Ray) -> bool,
     {
-        for &p in &self.unbounded {
-            counters.test();
-            if hit(p, ray) {
-                return true;
-            }
+        if offer_any(&self.unbounded, ray, counters, &mut hit) {
+            return true;
         }
         let mut found = false;
         let mut mailbox = Mailbox::new();

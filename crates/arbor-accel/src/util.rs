@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use crate::aabb::SLAB_TFAR_SCALE;
-use crate::{Aabb, Primitives};
+use crate::{Aabb, Counters, Primitives, Ray};
 
 /// Relative widening that covers the three roundings of a slab distance
 /// `(plane - origin) * inv_dir` (see [`SLAB_TFAR_SCALE`]).
@@ -131,6 +131,37 @@ impl Mailbox {
         }
         self.spill.get_or_insert_with(Default::default).insert(id)
     }
+}
+
+/// Offers each primitive of `prims` to the caller's exact test, shrinking
+/// `ray.tmax` to every hit it reports: what every structure does in a leaf
+/// and with its list of primitives that have no finite box.
+#[inline(always)]
+pub(crate) fn offer_closest<C, F>(prims: &[u32], ray: &mut Ray, counters: &mut C, hit: &mut F)
+where
+    C: Counters,
+    F: FnMut(u32, &Ray) -> Option<f32>,
+{
+    for &p in prims {
+        counters.test();
+        if let Some(t) = hit(p, ray) {
+            ray.tmax = ray.tmax.min(t);
+        }
+    }
+}
+
+/// Whether the caller's test reports any primitive of `prims`; stops at the
+/// first.
+#[inline(always)]
+pub(crate) fn offer_any<C, F>(prims: &[u32], ray: &Ray, counters: &mut C, hit: &mut F) -> bool
+where
+    C: Counters,
+    F: FnMut(u32, &Ray) -> bool,
+{
+    prims.iter().any(|&p| {
+        counters.test();
+        hit(p, ray)
+    })
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ pub use wide::WideBvh;
 use glam::{Vec3, Vec3A, Vec4};
 
 use crate::aabb::SLAB_TFAR_SCALE;
-use crate::util::{prepare_map, widen_up};
+use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Depth from which every builder stops optimising and splits by count, so
@@ -295,12 +295,7 @@ impl Accelerator for Bvh {
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
-        for &p in &self.unbounded {
-            counters.test();
-            if let Some(t) = hit(p, &ray) {
-                ray.tmax = ray.tmax.min(t);
-            }
-        }
+        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let Some(root) = self.nodes.first() else {
             return;
         };
@@ -316,12 +311,12 @@ impl Accelerator for Bvh {
             let n = &self.nodes[node];
             if n.is_leaf() {
                 let first = n.offset as usize;
-                for &p in &self.prims[first..first + n.count as usize] {
-                    counters.test();
-                    if let Some(t) = hit(p, &ray) {
-                        ray.tmax = ray.tmax.min(t);
-                    }
-                }
+                offer_closest(
+                    &self.prims[first..first + n.count as usize],
+                    &mut ray,
+                    counters,
+                    &mut hit,
+                );
             } else {
                 let (l, r) = (node + 1, n.offset as usize);
                 let wide = widen_up(ray.tmax);
@@ -367,11 +362,8 @@ impl Accelerator for Bvh {
         C: Counters,
         F: FnMut(u32, &Ray) -> bool,
     {
-        for &p in &self.unbounded {
-            counters.test();
-            if hit(p, ray) {
-                return true;
-            }
+        if offer_any(&self.unbounded, ray, counters, &mut hit) {
+            return true;
         }
         let Some(root) = self.nodes.first() else {
             return false;
@@ -389,11 +381,13 @@ impl Accelerator for Bvh {
             let n = &self.nodes[node];
             if n.is_leaf() {
                 let first = n.offset as usize;
-                for &p in &self.prims[first..first + n.count as usize] {
-                    counters.test();
-                    if hit(p, ray) {
-                        return true;
-                    }
+                if offer_any(
+                    &self.prims[first..first + n.count as usize],
+                    ray,
+                    counters,
+                    &mut hit,
+                ) {
+                    return true;
                 }
             } else {
                 let (l, r) = (node + 1, n.offset as usize);

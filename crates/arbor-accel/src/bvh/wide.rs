@@ -36,7 +36,7 @@ use glam::{BVec4A, Vec4};
 
 use super::{Bvh, BvhBuilder, BvhParams, STACK_SIZE};
 use crate::aabb::SLAB_TFAR_SCALE;
-use crate::util::widen_up;
+use crate::util::{offer_any, offer_closest, widen_up};
 use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Child slot holding nothing.
@@ -221,12 +221,7 @@ impl Accelerator for WideBvh {
         F: FnMut(u32, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
-        for &p in &self.unbounded {
-            counters.test();
-            if let Some(t) = hit(p, &ray) {
-                ray.tmax = ray.tmax.min(t);
-            }
-        }
+        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         if self.nodes.is_empty() {
             return;
         }
@@ -242,11 +237,8 @@ impl Accelerator for WideBvh {
         C: Counters,
         F: FnMut(u32, &Ray) -> bool,
     {
-        for &p in &self.unbounded {
-            counters.test();
-            if hit(p, ray) {
-                return true;
-            }
+        if offer_any(&self.unbounded, ray, counters, &mut hit) {
+            return true;
         }
         if self.nodes.is_empty() {
             return false;
@@ -291,12 +283,12 @@ impl WideBvh {
             counters.node();
             if count > 0 {
                 let first = child as usize;
-                for &p in &self.prims[first..first + count as usize] {
-                    counters.test();
-                    if let Some(t) = hit(p, &ray) {
-                        ray.tmax = ray.tmax.min(t);
-                    }
-                }
+                offer_closest(
+                    &self.prims[first..first + count as usize],
+                    &mut ray,
+                    counters,
+                    &mut hit,
+                );
             } else {
                 let n = &self.nodes[child as usize];
                 let (tnear, mask) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
@@ -354,11 +346,13 @@ impl WideBvh {
             counters.node();
             if count > 0 {
                 let first = child as usize;
-                for &p in &self.prims[first..first + count as usize] {
-                    counters.test();
-                    if hit(p, ray) {
-                        return true;
-                    }
+                if offer_any(
+                    &self.prims[first..first + count as usize],
+                    ray,
+                    counters,
+                    &mut hit,
+                ) {
+                    return true;
                 }
             } else {
                 let n = &self.nodes[child as usize];
