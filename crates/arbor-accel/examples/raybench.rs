@@ -9,8 +9,8 @@
 use std::time::Instant;
 
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray,
-    RayShear, TriangleMesh, Vec3,
+    intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, BvhParams, NoCounters,
+    Ray, RayShear, TriangleBvh, TriangleMesh, Vec3,
 };
 use rayon::prelude::*;
 
@@ -81,6 +81,13 @@ fn main() {
         .map(|i| mesh.triangle(i))
         .collect();
     for kind in args[2].split(',') {
+        if kind == "triangles" {
+            let mut params = BvhParams::default();
+            params.max_leaf_size = opt("--leaf", params.max_leaf_size);
+            params.traversal_cost = opt("--ct-percent", 100) as f32 / 100.0;
+            bench_triangle_bvh(&mesh, &rays, &pool, &params, repeat, occluded);
+            continue;
+        }
         let kind: AccelKind = kind.parse().unwrap();
         let start = Instant::now();
         let mut params = AccelParams::default();
@@ -131,4 +138,49 @@ fn main() {
             s.memory_bytes as f64 / mesh.triangles.len() as f64
         );
     }
+}
+
+/// The same measurement for [`TriangleBvh`] (`KIND` = `triangles`), which
+/// owns its triangles and tests them four at a time.
+fn bench_triangle_bvh(
+    mesh: &TriangleMesh,
+    rays: &[Ray],
+    pool: &rayon::ThreadPool,
+    params: &BvhParams,
+    repeat: usize,
+    occluded: bool,
+) {
+    let start = Instant::now();
+    let bvh = pool.install(|| TriangleBvh::build(mesh, params));
+    let build = start.elapsed().as_secs_f64() * 1e3;
+    let mut times = Vec::new();
+    let mut sum = 0u64;
+    for _ in 0..repeat {
+        let start = Instant::now();
+        sum = pool.install(|| {
+            rays.par_iter()
+                .with_min_len(256)
+                .map(|ray| {
+                    if occluded {
+                        u64::from(bvh.occluded(ray, &mut NoCounters))
+                    } else {
+                        bvh.closest(ray, &mut NoCounters).map_or(
+                            u64::from(u32::MAX) ^ u64::from(f32::INFINITY.to_bits()),
+                            |h| u64::from(h.prim) ^ u64::from(h.hit.t.to_bits()),
+                        )
+                    }
+                })
+                .sum()
+        });
+        times.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(f64::total_cmp);
+    let med = times[times.len() / 2];
+    println!(
+        "{:12} build {build:8.1} ms  trace median {med:8.1} ms  min {:8.1} ms  {:6.2} Mrays/s  {:5.1} B/tri  checksum {sum:x}",
+        "triangles",
+        times[0],
+        rays.len() as f64 / (med * 1e3),
+        bvh.stats().memory_bytes as f64 / mesh.triangles.len() as f64
+    );
 }

@@ -36,11 +36,12 @@ mod primitives;
 mod ray;
 mod sphere;
 mod triangle;
+mod triangle_lanes;
 mod util;
 
 pub use aabb::{Aabb, SLAB_TFAR_SCALE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
-pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, WideBvh};
+pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, MeshHit, TriangleBvh, WideBvh};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
 pub use kdtree::{KdParams, KdTree};

@@ -24,11 +24,11 @@ pub struct TriangleHit {
 /// computing it identically for every triangle is what makes it watertight.
 #[derive(Clone, Copy, Debug)]
 pub struct RayShear {
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
+    pub(crate) kx: usize,
+    pub(crate) ky: usize,
+    pub(crate) kz: usize,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
 }
 
 impl RayShear {
@@ -126,11 +126,49 @@ pub fn intersect_triangle_sheared(
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
         }
-        let det = u + v + w;
-        (f64::from(u / det), f64::from(v / det), f64::from(w / det))
+        return hit_from_certain_edges(ray, s, p0, p1, p2, u, v, w);
     } else {
         edge_functions_f64(ray, s, p0, p1, p2)?
     };
+    hit_from_weights(ray, s, p0, p1, p2, u, v, w)
+}
+
+/// The end of [`intersect_triangle_sheared`] once the `f32` edge functions
+/// `u, v, w` are known to have certain signs, none of them opposite: their
+/// normalised weights, then the distance. Split out so that a test of several
+/// triangles at once (`triangle_lanes.rs`) can finish a lane with exactly the
+/// arithmetic of the one-triangle test.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn hit_from_certain_edges(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    u: f32,
+    v: f32,
+    w: f32,
+) -> Option<TriangleHit> {
+    let det = u + v + w;
+    let (u, v, w) = (f64::from(u / det), f64::from(v / det), f64::from(w / det));
+    hit_from_weights(ray, s, p0, p1, p2, u, v, w)
+}
+
+/// The hit at normalised edge weights `u, v, w` (of `p0, p1, p2`): its
+/// distance in `f64`, checked against the ray's interval.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn hit_from_weights(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    u: f64,
+    v: f64,
+    w: f64,
+) -> Option<TriangleHit> {
     // The distance from the plane equation in f64: well conditioned unless
     // the ray grazes the plane, and exact in the common case of an
     // axis-aligned triangle.

@@ -9,8 +9,10 @@
 mod ploc;
 mod sweep;
 mod topdown;
+mod triangles;
 mod wide;
 
+pub use triangles::{MeshHit, TriangleBvh};
 pub use wide::WideBvh;
 
 use glam::{Vec3, Vec3A, Vec4};

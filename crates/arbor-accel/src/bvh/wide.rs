@@ -222,14 +222,9 @@ impl Accelerator for WideBvh {
     {
         let mut ray = *ray;
         offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
-        if self.nodes.is_empty() {
-            return;
-        }
-        if Lanes::needs_nan_care(&ray) {
-            self.closest_in::<true, C, F>(ray, counters, hit);
-        } else {
-            self.closest_in::<false, C, F>(ray, counters, hit);
-        }
+        self.closest_leaves(ray, counters, |first, count, ray, counters| {
+            offer_closest(&self.prims[first..first + count], ray, counters, &mut hit);
+        });
     }
 
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
@@ -240,14 +235,9 @@ impl Accelerator for WideBvh {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
         }
-        if self.nodes.is_empty() {
-            return false;
-        }
-        if Lanes::needs_nan_care(ray) {
-            self.occluded_in::<true, C, F>(ray, counters, hit)
-        } else {
-            self.occluded_in::<false, C, F>(ray, counters, hit)
-        }
+        self.occluded_leaves(ray, counters, |first, count, ray, counters| {
+            offer_any(&self.prims[first..first + count], ray, counters, &mut hit)
+        })
     }
 
     fn stats(&self) -> AccelStats {
@@ -269,11 +259,60 @@ impl Accelerator for WideBvh {
 }
 
 impl WideBvh {
+    /// The primitive slots, in leaf order: leaf `(first, count)` holds
+    /// `prims()[first..first + count]`.
+    pub(crate) fn prims(&self) -> &[u32] {
+        &self.prims
+    }
+
+    /// Primitives without a finite box, which every ray must be offered.
+    pub(crate) fn unbounded(&self) -> &[u32] {
+        &self.unbounded
+    }
+
+    /// Closest-hit traversal (the unbounded primitives are the caller's):
+    /// calls `leaf(first, count, ray, counters)` for every leaf the ray
+    /// enters, nearest first; `leaf` shrinks `ray.tmax` to the hits it finds.
     #[inline(always)]
-    fn closest_in<const NAN_SAFE: bool, C, F>(&self, mut ray: Ray, counters: &mut C, mut hit: F)
+    pub(crate) fn closest_leaves<C, L>(&self, ray: Ray, counters: &mut C, leaf: L)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        L: FnMut(usize, usize, &mut Ray, &mut C),
+    {
+        if self.nodes.is_empty() {
+            return;
+        }
+        if Lanes::needs_nan_care(&ray) {
+            self.closest_in::<true, C, L>(ray, counters, leaf);
+        } else {
+            self.closest_in::<false, C, L>(ray, counters, leaf);
+        }
+    }
+
+    /// Any-hit traversal (the unbounded primitives are the caller's): calls
+    /// `leaf(first, count, ray, counters)` for leaves the ray enters until
+    /// one returns `true`.
+    #[inline(always)]
+    pub(crate) fn occluded_leaves<C, L>(&self, ray: &Ray, counters: &mut C, leaf: L) -> bool
+    where
+        C: Counters,
+        L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+    {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        if Lanes::needs_nan_care(ray) {
+            self.occluded_in::<true, C, L>(ray, counters, leaf)
+        } else {
+            self.occluded_in::<false, C, L>(ray, counters, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn closest_in<const NAN_SAFE: bool, C, L>(&self, mut ray: Ray, counters: &mut C, mut leaf: L)
+    where
+        C: Counters,
+        L: FnMut(usize, usize, &mut Ray, &mut C),
     {
         let lanes = Lanes::new(&ray);
         // (child, count, entry distance), as in the node's slots.
@@ -282,13 +321,7 @@ impl WideBvh {
         loop {
             counters.node();
             if count > 0 {
-                let first = child as usize;
-                offer_closest(
-                    &self.prims[first..first + count as usize],
-                    &mut ray,
-                    counters,
-                    &mut hit,
-                );
+                leaf(child as usize, count as usize, &mut ray, counters);
             } else {
                 let n = &self.nodes[child as usize];
                 let (tnear, mask) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
@@ -328,15 +361,15 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn occluded_in<const NAN_SAFE: bool, C, F>(
+    fn occluded_in<const NAN_SAFE: bool, C, L>(
         &self,
         ray: &Ray,
         counters: &mut C,
-        mut hit: F,
+        mut leaf: L,
     ) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        L: FnMut(usize, usize, &Ray, &mut C) -> bool,
     {
         let lanes = Lanes::new(ray);
         let wide = widen_up(ray.tmax);
@@ -345,13 +378,7 @@ impl WideBvh {
         loop {
             counters.node();
             if count > 0 {
-                let first = child as usize;
-                if offer_any(
-                    &self.prims[first..first + count as usize],
-                    ray,
-                    counters,
-                    &mut hit,
-                ) {
+                if leaf(child as usize, count as usize, ray, counters) {
                     return true;
                 }
             } else {

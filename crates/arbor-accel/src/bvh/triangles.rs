@@ -1,0 +1,287 @@
+//! [`TriangleBvh`]: the default wide BVH specialised to a triangle mesh, for
+//! callers that cast rays against plain triangles (`arbor trace`, benchmarks
+//! against Embree) rather than through their own primitive test.
+//!
+//! The generic structures hand the caller one primitive index at a time, and
+//! the caller looks its triangle up: two dependent loads per test and a
+//! scalar test. Here the triangles' vertices are copied into the structure
+//! in leaf order (36 bytes each, one contiguous run per leaf), and a leaf's
+//! triangles go through the watertight test's `f32` edge stage four at a
+//! time in SIMD lanes (`triangle_lanes.rs`). The answers are bit for bit
+//! those of [`WideBvh`] with [`intersect_triangle_sheared`] as the caller's
+//! test (same traversal, same triangles offered in the same order, the same
+//! arithmetic per triangle), which the tests below check against brute force.
+
+use glam::Vec3;
+
+use super::{BvhParams, WideBvh};
+use crate::triangle_lanes::{edge_stage, LANES};
+use crate::{
+    intersect_triangle_sheared, AccelStats, Accelerator, Counters, Ray, RayShear, TriangleHit,
+    TriangleMesh,
+};
+
+/// The closest hit of a ray on a mesh: which triangle, and where on it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Index of the triangle in the mesh.
+    pub prim: u32,
+    /// Distance and barycentrics.
+    pub hit: TriangleHit,
+}
+
+/// A 4-wide BVH over a triangle mesh that owns its triangles in leaf order.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleBvh {
+    bvh: WideBvh,
+    /// Vertices of the triangle in each primitive slot of `bvh`.
+    tris: Vec<[Vec3; 3]>,
+    /// Triangles without a finite box (offered to every ray), with their ids.
+    unbounded: Vec<(u32, [Vec3; 3])>,
+}
+
+impl TriangleBvh {
+    /// Builds the wide BVH over `mesh` with `params` and copies the
+    /// triangles into leaf order. The mesh is not needed afterwards.
+    pub fn build(mesh: &TriangleMesh, params: &BvhParams) -> Self {
+        let bvh = WideBvh::build(mesh, params);
+        let tris = bvh
+            .prims()
+            .iter()
+            .map(|&p| mesh.triangle(p as usize))
+            .collect();
+        let unbounded = bvh
+            .unbounded()
+            .iter()
+            .map(|&p| (p, mesh.triangle(p as usize)))
+            .collect();
+        TriangleBvh {
+            bvh,
+            tris,
+            unbounded,
+        }
+    }
+
+    /// The closest hit within `[ray.tmin, ray.tmax]`. Of hits at the same
+    /// distance, the first offered wins (as with [`WideBvh`] and a caller
+    /// that keeps the first of equal hits).
+    #[inline]
+    pub fn closest<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Option<MeshHit> {
+        let shear = RayShear::new(ray);
+        let mut best: Option<MeshHit> = None;
+        let mut keep = |prim: u32, hit: TriangleHit, ray: &mut Ray| {
+            if best.is_none_or(|b| hit.t < b.hit.t) {
+                best = Some(MeshHit { prim, hit });
+            }
+            ray.tmax = ray.tmax.min(hit.t);
+        };
+        let mut ray = *ray;
+        for &(prim, [a, b, c]) in &self.unbounded {
+            counters.test();
+            if let Some(hit) = intersect_triangle_sheared(&ray, &shear, a, b, c) {
+                keep(prim, hit, &mut ray);
+            }
+        }
+        let ids = self.bvh.prims();
+        self.bvh
+            .closest_leaves(ray, counters, |first, count, ray, counters| {
+                let tris = &self.tris[first..first + count];
+                let ids = &ids[first..first + count];
+                for (group, ids) in tris.chunks(LANES).zip(ids.chunks(LANES)) {
+                    let verdict = edge_stage(ray, &shear, group);
+                    let mut todo = verdict.candidates(group.len());
+                    for _ in 0..group.len() {
+                        counters.test();
+                    }
+                    while todo != 0 {
+                        let k = todo.trailing_zeros() as usize;
+                        todo &= todo - 1;
+                        if let Some(hit) = verdict.finish(k, ray, &shear, group[k]) {
+                            keep(ids[k], hit, ray);
+                        }
+                    }
+                }
+            });
+        best
+    }
+
+    /// Whether any triangle is hit within `[ray.tmin, ray.tmax]`.
+    #[inline]
+    pub fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        let shear = RayShear::new(ray);
+        for &(_, [a, b, c]) in &self.unbounded {
+            counters.test();
+            if intersect_triangle_sheared(ray, &shear, a, b, c).is_some() {
+                return true;
+            }
+        }
+        self.bvh
+            .occluded_leaves(ray, counters, |first, count, ray, counters| {
+                let tris = &self.tris[first..first + count];
+                tris.chunks(LANES).any(|group| {
+                    for _ in 0..group.len() {
+                        counters.test();
+                    }
+                    let verdict = edge_stage(ray, &shear, group);
+                    let mut todo = verdict.candidates(group.len());
+                    while todo != 0 {
+                        let k = todo.trailing_zeros() as usize;
+                        todo &= todo - 1;
+                        if verdict.finish(k, ray, &shear, group[k]).is_some() {
+                            return true;
+                        }
+                    }
+                    false
+                })
+            })
+    }
+
+    /// Size and shape; the memory includes the triangle copies.
+    pub fn stats(&self) -> AccelStats {
+        let mut stats = self.bvh.stats();
+        stats.memory_bytes += std::mem::size_of_val(self.tris.as_slice())
+            + std::mem::size_of_val(self.unbounded.as_slice());
+        stats
+    }
+
+    /// Number of triangles indexed (those of the mesh that can be hit).
+    pub fn len(&self) -> usize {
+        self.tris.len() + self.unbounded.len()
+    }
+
+    /// Whether no triangle is indexed.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Accel, AccelKind};
+
+    /// A deterministic bumpy mesh with shared edges, plus a few hostile
+    /// triangles (degenerate, huge, NaN), and rays from all around.
+    fn scene() -> (TriangleMesh, Vec<Ray>) {
+        let n = 24;
+        let mut vertices = Vec::new();
+        for i in 0..=n {
+            for j in 0..=n {
+                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+                let z = 0.1 * ((7.0 * x).sin() * (5.0 * y).cos());
+                vertices.push(Vec3::new(x, y, z));
+            }
+        }
+        let mut triangles = Vec::new();
+        let at = |i: u32, j: u32| i * (n + 1) + j;
+        for i in 0..n {
+            for j in 0..n {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let base = vertices.len() as u32;
+        vertices.extend([
+            Vec3::new(0.5, 0.5, 0.05),
+            Vec3::new(0.6, 0.5, 0.05),
+            Vec3::new(0.7, 0.5, 0.05), // collinear: never hit
+            Vec3::new(-1e30, -1e30, 0.2),
+            Vec3::new(1e30, 0.0, 0.2),
+            Vec3::new(0.0, 1e30, 0.2),
+            Vec3::new(f32::NAN, 0.0, 0.0),
+        ]);
+        triangles.push([base, base + 1, base + 2]);
+        triangles.push([base + 3, base + 4, base + 5]);
+        triangles.push([base + 6, base, base + 1]);
+        let mut rays = Vec::new();
+        let mut k = 0u32;
+        for i in 0..40 {
+            for j in 0..40 {
+                k += 1;
+                let target = Vec3::new(i as f32 / 39.0, j as f32 / 39.0, 0.0);
+                let from = Vec3::new(
+                    0.5 + ((k * 37) % 11) as f32 - 5.0,
+                    0.5 + ((k * 53) % 13) as f32 - 6.0,
+                    if k % 3 == 0 { -2.0 } else { 3.0 },
+                );
+                rays.push(Ray::new(from, target - from, 0.0, f32::INFINITY));
+                // Axis-parallel rays (zero direction components) too.
+                rays.push(Ray::new(
+                    Vec3::new(target.x, target.y, 1.0),
+                    Vec3::new(0.0, 0.0, -1.0),
+                    0.0,
+                    if k % 5 == 0 { 0.5 } else { f32::INFINITY },
+                ));
+            }
+        }
+        (mesh_of(vertices, triangles), rays)
+    }
+
+    fn mesh_of(v: Vec<Vec3>, t: Vec<[u32; 3]>) -> TriangleMesh {
+        TriangleMesh::new(v, t)
+    }
+
+    /// What brute force answers: every triangle in index order, the first of
+    /// equal hits kept.
+    fn brute(mesh: &TriangleMesh, ray: &Ray) -> (Option<(u32, f32)>, bool) {
+        let list = Accel::build(AccelKind::List, mesh);
+        let shear = RayShear::new(ray);
+        let mut best: Option<(u32, f32)> = None;
+        list.closest(ray, &mut crate::NoCounters, |p, r| {
+            let [a, b, c] = mesh.triangle(p as usize);
+            let h = intersect_triangle_sheared(r, &shear, a, b, c)?;
+            if best.is_none_or(|(_, t)| h.t < t) {
+                best = Some((p, h.t));
+            }
+            Some(h.t)
+        });
+        let any = list.occluded(ray, &mut crate::NoCounters, |p, r| {
+            let [a, b, c] = mesh.triangle(p as usize);
+            intersect_triangle_sheared(r, &shear, a, b, c).is_some()
+        });
+        (best, any)
+    }
+
+    #[test]
+    fn answers_like_brute_force_and_like_the_generic_wide_bvh() {
+        let (mesh, rays) = scene();
+        let fast = TriangleBvh::build(&mesh, &BvhParams::default());
+        let wide = WideBvh::build(&mesh, &BvhParams::default());
+        assert_eq!(
+            fast.len(),
+            mesh.triangles.len(),
+            "NaN ones among the unbounded"
+        );
+        let mut hits = 0;
+        for ray in &rays {
+            let got = fast.closest(ray, &mut crate::NoCounters);
+            let (want, any) = brute(&mesh, ray);
+            assert_eq!(got.map(|h| h.hit.t.to_bits()), want.map(|w| w.1.to_bits()));
+            // The same triangle as the generic structure with the same test
+            // (brute force may pick the other triangle of a shared edge).
+            let shear = RayShear::new(ray);
+            let mut generic: Option<MeshHit> = None;
+            wide.closest(ray, &mut crate::NoCounters, |p, r| {
+                let [a, b, c] = mesh.triangle(p as usize);
+                let hit = intersect_triangle_sheared(r, &shear, a, b, c)?;
+                if generic.is_none_or(|g| hit.t < g.hit.t) {
+                    generic = Some(MeshHit { prim: p, hit });
+                }
+                Some(hit.t)
+            });
+            assert_eq!(got, generic, "{ray:?}");
+            assert_eq!(fast.occluded(ray, &mut crate::NoCounters), any, "{ray:?}");
+            hits += usize::from(got.is_some());
+        }
+        assert!(hits > rays.len() / 2, "only {hits} of {} hit", rays.len());
+    }
+
+    #[test]
+    fn empty_mesh_hits_nothing() {
+        let fast = TriangleBvh::build(&TriangleMesh::default(), &BvhParams::default());
+        let ray = Ray::new(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY);
+        assert!(fast.is_empty());
+        assert_eq!(fast.closest(&ray, &mut crate::NoCounters), None);
+        assert!(!fast.occluded(&ray, &mut crate::NoCounters));
+    }
+}

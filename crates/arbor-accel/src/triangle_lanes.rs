@@ -1,0 +1,249 @@
+//! The watertight ray/triangle test for up to four triangles at once: its
+//! `f32` edge stage (where most triangles are rejected) in SIMD lanes, the
+//! rest per lane with the one-triangle code.
+//!
+//! Identical answers are the point, not an approximation of them. Each lane
+//! performs, operation for operation, the `f32` arithmetic of
+//! [`intersect_triangle_sheared`]: the same subtractions, shear products,
+//! edge functions, the same left-to-right sums of absolute values for the
+//! error bound. IEEE arithmetic is deterministic, so the lane values equal
+//! the scalar ones. The only lane operations whose results could differ are
+//! `min`/`max`, whose NaN handling differs between SSE and `f32::min`; a lane
+//! is therefore decided here only when its three edge functions are not NaN,
+//! which (each edge function combines two vertices' sheared coordinates,
+//! which combine every relative vertex coordinate) makes every input of
+//! those `min`/`max` non-NaN, where they are exact and agree. Such a lane is
+//! either rejected (signs certain and mixed: the scalar test returns `None`
+//! there too) or finished by [`hit_from_certain_edges`] with its lane values,
+//! the scalar test's own continuation. Every other lane runs the whole scalar
+//! test.
+
+use glam::{BVec4A, Vec3, Vec4};
+
+use crate::triangle::{hit_from_certain_edges, intersect_triangle_sheared};
+use crate::Ray;
+use crate::{RayShear, TriangleHit};
+
+/// Triangles tested together.
+pub(crate) const LANES: usize = 4;
+
+/// The edge stage's verdict for up to [`LANES`] triangles.
+pub(crate) struct EdgeVerdict {
+    u: [f32; LANES],
+    v: [f32; LANES],
+    w: [f32; LANES],
+    /// Lanes certainly missed (the scalar test would return `None`).
+    miss: u32,
+    /// Lanes whose edge functions certainly put the ray inside: finish with
+    /// [`hit_from_certain_edges`].
+    inside: u32,
+}
+
+/// The `f32` edge stage of the watertight test for `tris` (1 to 4
+/// triangles; missing lanes repeat the last triangle and are never reported).
+#[inline(always)]
+pub(crate) fn edge_stage(ray: &Ray, s: &RayShear, tris: &[[Vec3; 3]]) -> EdgeVerdict {
+    debug_assert!(!tris.is_empty() && tris.len() <= LANES);
+    // The axis permutation as constants: indexing lanes by a runtime axis
+    // would spill them to memory. Within one ray the arm never changes, so
+    // the branch costs nothing.
+    match (s.kx, s.ky) {
+        (1, 2) => stage::<1, 2, 0>(ray, s, tris),
+        (2, 1) => stage::<2, 1, 0>(ray, s, tris),
+        (2, 0) => stage::<2, 0, 1>(ray, s, tris),
+        (0, 2) => stage::<0, 2, 1>(ray, s, tris),
+        (0, 1) => stage::<0, 1, 2>(ray, s, tris),
+        _ => stage::<1, 0, 2>(ray, s, tris),
+    }
+}
+
+/// [`edge_stage`] for the permutation `(KX, KY, KZ)` of the ray's shear.
+#[inline(always)]
+fn stage<const KX: usize, const KY: usize, const KZ: usize>(
+    ray: &Ray,
+    s: &RayShear,
+    tris: &[[Vec3; 3]],
+) -> EdgeVerdict {
+    debug_assert_eq!((s.kx, s.ky, s.kz), (KX, KY, KZ));
+    let last = tris.len() - 1;
+    let t = [
+        &tris[0],
+        &tris[1.min(last)],
+        &tris[2.min(last)],
+        &tris[3.min(last)],
+    ];
+    let o = ray.origin.to_array();
+    // Coordinate `c` of vertex `j` relative to the origin, in lanes.
+    let rel = |j: usize, c: usize| {
+        Vec4::new(
+            t[0][j].to_array()[c],
+            t[1][j].to_array()[c],
+            t[2][j].to_array()[c],
+            t[3][j].to_array()[c],
+        ) - Vec4::splat(o[c])
+    };
+    let (sx, sy) = (Vec4::splat(s.sx), Vec4::splat(s.sy));
+    // The sheared coordinates of vertex `j`, and its relative coordinates in
+    // the original axis order (for the error bound's sums).
+    let vertex = |j: usize| {
+        let p = [rel(j, 0), rel(j, 1), rel(j, 2)];
+        let sheared = (p[KX] - sx * p[KZ], p[KY] - sy * p[KZ]);
+        let l1 = p[0].abs() + p[1].abs() + p[2].abs();
+        (sheared, l1)
+    };
+    let ((ax, ay), la) = vertex(0);
+    let ((bx, by), lb) = vertex(1);
+    let ((cx, cy), lc) = vertex(2);
+    let u = cx * by - cy * bx;
+    let v = ax * cy - ay * cx;
+    let w = bx * ay - by * ax;
+    // The scalar test's error bound, in the same order of operations.
+    let scale = la.max(lb).max(lc);
+    let m = ax
+        .abs()
+        .max(ay.abs())
+        .max(bx.abs())
+        .max(by.abs())
+        .max(cx.abs())
+        .max(cy.abs());
+    let bound = m * scale * Vec4::splat(1.0 / 262_144.0);
+    let smallest = u.abs().min(v.abs()).min(w.abs());
+    let decided: BVec4A =
+        smallest.cmpgt(bound) & !(u.is_nan_mask() | v.is_nan_mask() | w.is_nan_mask());
+    let zero = Vec4::ZERO;
+    let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
+    let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
+    let mixed = negative & positive;
+    let valid = (1u32 << tris.len()) - 1;
+    EdgeVerdict {
+        u: u.to_array(),
+        v: v.to_array(),
+        w: w.to_array(),
+        miss: (decided & mixed).bitmask() & valid,
+        inside: (decided & !mixed).bitmask() & valid,
+    }
+}
+
+impl EdgeVerdict {
+    /// The lanes the edge stage did not reject, as a bit set.
+    #[inline(always)]
+    pub(crate) fn candidates(&self, count: usize) -> u32 {
+        !self.miss & ((1u32 << count) - 1)
+    }
+
+    /// The full test of lane `k` (a candidate) against `tri`: exactly what
+    /// [`intersect_triangle_sheared`] answers for it.
+    #[inline(always)]
+    pub(crate) fn finish(
+        &self,
+        k: usize,
+        ray: &Ray,
+        s: &RayShear,
+        tri: [Vec3; 3],
+    ) -> Option<TriangleHit> {
+        let [p0, p1, p2] = tri;
+        if self.inside & (1 << k) != 0 {
+            hit_from_certain_edges(ray, s, p0, p1, p2, self.u[k], self.v[k], self.w[k])
+        } else {
+            intersect_triangle_sheared(ray, s, p0, p1, p2)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (SplitMix64).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        /// Mostly ordinary coordinates, sometimes the values that break
+        /// arithmetic: zeros, huge, tiny, infinities, NaN, shared values.
+        fn coord(&mut self) -> f32 {
+            match self.next() % 16 {
+                0 => 0.0,
+                1 => 1e30,
+                2 => -1e-30,
+                3 => f32::INFINITY,
+                4 => f32::NAN,
+                5 => 1.0,
+                _ => (self.next() % 2001) as f32 / 1000.0 - 1.0,
+            }
+        }
+        fn vec(&mut self) -> Vec3 {
+            Vec3::new(self.coord(), self.coord(), self.coord())
+        }
+    }
+
+    fn same(a: Option<TriangleHit>, b: Option<TriangleHit>) -> bool {
+        match (a, b) {
+            (None, None) => true,
+            (Some(a), Some(b)) => {
+                a.t.to_bits() == b.t.to_bits()
+                    && a.u.to_bits() == b.u.to_bits()
+                    && a.v.to_bits() == b.v.to_bits()
+            }
+            _ => false,
+        }
+    }
+
+    /// Every lane answers bit for bit what the one-triangle test answers,
+    /// including on hostile coordinates; and the edge stage does reject.
+    #[test]
+    fn lanes_answer_like_the_scalar_test() {
+        let mut rng = Rng(7);
+        let mut rejected = 0;
+        let mut hits = 0;
+        for i in 0..200_000 {
+            let ray = Ray::new(rng.vec(), rng.vec(), 0.0, f32::INFINITY);
+            let s = RayShear::new(&ray);
+            let count = 1 + i % LANES;
+            let tris: Vec<[Vec3; 3]> = (0..count)
+                .map(|_| {
+                    // Half the triangles near the ray, so that many are hit.
+                    if rng.next() % 2 == 0 {
+                        let base = ray.origin + ray.dir * 0.5;
+                        let jitter = |r: &mut Rng| {
+                            Vec3::new(
+                                (r.next() % 2001) as f32 / 1000.0 - 1.0,
+                                (r.next() % 2001) as f32 / 1000.0 - 1.0,
+                                (r.next() % 2001) as f32 / 1000.0 - 1.0,
+                            )
+                        };
+                        [
+                            base + jitter(&mut rng),
+                            base + jitter(&mut rng),
+                            base + jitter(&mut rng),
+                        ]
+                    } else {
+                        [rng.vec(), rng.vec(), rng.vec()]
+                    }
+                })
+                .collect();
+            let verdict = edge_stage(&ray, &s, &tris);
+            for (k, tri) in tris.iter().enumerate() {
+                let scalar = intersect_triangle_sheared(&ray, &s, tri[0], tri[1], tri[2]);
+                let lane = if verdict.candidates(count) & (1 << k) != 0 {
+                    verdict.finish(k, &ray, &s, *tri)
+                } else {
+                    rejected += 1;
+                    None
+                };
+                assert!(
+                    same(scalar, lane),
+                    "lane {k} of {tris:?} for {ray:?}: {lane:?} vs scalar {scalar:?}"
+                );
+                hits += usize::from(scalar.is_some());
+            }
+        }
+        assert!(rejected > 50_000, "the edge stage rejected only {rejected}");
+        assert!(hits > 10_000, "only {hits} hits: the test sees too few");
+    }
+}
