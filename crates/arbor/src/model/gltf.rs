@@ -31,16 +31,41 @@ use crate::mesh::{MeshData, MeshError};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
 
-/// Imports the glTF or GLB file at `path`.
+/// Imports the glTF or GLB file at `path`, external buffers resolved
+/// beside it.
 pub fn load(path: &Path) -> Result<Model, MeshError> {
     let bytes = super::read_bytes(path)?;
+    parse(&bytes, path, Some(path.parent().unwrap_or(Path::new("."))))
+}
+
+/// Imports glTF JSON or GLB bytes; `path` is only used in messages. Buffers
+/// given by a relative or `file:` URI are read from the folder `base`;
+/// without one only embedded buffers (GLB binary chunk, `data:` URIs) load.
+pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, MeshError> {
     if bytes.is_empty() {
         return Err(MeshError::file(path, "the file is empty"));
     }
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| MeshError::file(path, format!("not a valid glTF 2.0 file: {e}")))?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+    let invalid = |e: gltf::Error| MeshError::file(path, format!("not a valid glTF 2.0 file: {e}"));
+    let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
+    // The crate's validation indexes the accessors by each primitive's
+    // POSITION before checking that index: check it first.
+    let json = gltf.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for p in &mesh.primitives {
+            let position = p.attributes.get(&gltf::json::validation::Checked::Valid(
+                gltf::Semantic::Positions,
+            ));
+            if position.is_some_and(|a| a.value() >= json.accessors.len()) {
+                return Err(MeshError::file(
+                    path,
+                    format!("mesh {m}: POSITION names an accessor that does not exist"),
+                ));
+            }
+        }
+    }
+    gltf.document = gltf::Document::from_json(gltf.document.into_json()).map_err(invalid)?;
+    check_buffer_uris(&gltf.document, path, base)?;
+    let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())
         .map_err(|e| MeshError::file(path, format!("cannot load a buffer: {e}")))?;
     Importer {
         path,
@@ -59,6 +84,66 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         aspect: None,
     }
     .run()
+}
+
+/// Checks what the crate's buffer import would trip on: a relative URI
+/// that does not percent-decode to UTF-8 (it panics), and an external
+/// buffer that is not a regular file (`/dev/zero` would be read forever).
+fn check_buffer_uris(
+    doc: &gltf::Document,
+    path: &Path,
+    base: Option<&Path>,
+) -> Result<(), MeshError> {
+    for buffer in doc.buffers() {
+        let gltf::buffer::Source::Uri(uri) = buffer.source() else {
+            continue;
+        };
+        let fail = |why: &str| MeshError::file(path, format!("buffer {}: {why}", buffer.index()));
+        let file = if let Some(rest) = uri.strip_prefix("file://").or(uri.strip_prefix("file:")) {
+            Path::new(rest).to_path_buf()
+        } else if uri.contains(':') {
+            continue; // data: URIs, and schemes the crate refuses
+        } else {
+            let decoded =
+                percent_decode(uri).ok_or_else(|| fail("the URI is not percent-encoded UTF-8"))?;
+            match base {
+                Some(base) => base.join(decoded),
+                None => continue, // the crate refuses external buffers
+            }
+        };
+        if base.is_some() && !std::fs::metadata(&file).is_ok_and(|m| m.is_file()) {
+            return Err(fail(&format!(
+                "'{}' is not a readable file",
+                file.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Decodes `%XX` escapes (others kept as they are); `None` when the result
+/// is not UTF-8.
+fn percent_decode(s: &str) -> Option<String> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = b
+            .get(i + 1..i + 3)
+            .filter(|h| h.iter().all(u8::is_ascii_hexdigit))
+            .and_then(|h| u8::from_str_radix(std::str::from_utf8(h).ok()?, 16).ok());
+        match hex {
+            Some(v) if b[i] == b'%' => {
+                out.push(v);
+                i += 3;
+            }
+            _ => {
+                out.push(b[i]);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).ok()
 }
 
 struct Importer<'a> {
@@ -300,13 +385,32 @@ impl Importer<'_> {
         Ok(Some(surface))
     }
 
-    /// Whether `accessor`'s data lies inside its buffer (the crate's
-    /// readers slice without checking).
-    fn check_accessor(&self, mesh: usize, accessor: &gltf::Accessor) -> Result<(), MeshError> {
+    /// Whether `accessor` holds what its use needs (the crate's readers
+    /// assume the type and panic on another; `indices` is the index list
+    /// rather than a VEC3 float attribute), with a stride no shorter than
+    /// an element, and its data lies inside its buffer (the crate's readers
+    /// slice without checking).
+    fn check_accessor(
+        &self,
+        mesh: usize,
+        accessor: &gltf::Accessor,
+        indices: bool,
+    ) -> Result<(), MeshError> {
+        use gltf::accessor::{DataType, Dimensions};
         let fail =
             |why: &str| self.err(format!("mesh {mesh}: accessor {} {why}", accessor.index()));
         if accessor.sparse().is_some() {
             return Err(fail("is sparse, which is not supported"));
+        }
+        let (ty, dims) = (accessor.data_type(), accessor.dimensions());
+        if indices {
+            if dims != Dimensions::Scalar
+                || !matches!(ty, DataType::U8 | DataType::U16 | DataType::U32)
+            {
+                return Err(fail("holds indices that are not unsigned integer scalars"));
+            }
+        } else if dims != Dimensions::Vec3 || ty != DataType::F32 {
+            return Err(fail("is not VEC3 of floats"));
         }
         let Some(view) = accessor.view() else {
             return Err(fail("has no buffer view"));
@@ -321,6 +425,9 @@ impl Importer<'_> {
         }
         let size = accessor.size();
         let stride = view.stride().unwrap_or(size);
+        if stride < size {
+            return Err(fail("has a buffer view stride shorter than its elements"));
+        }
         let count = accessor.count();
         let needed = match count {
             0 => Some(0),
@@ -339,13 +446,20 @@ impl Importer<'_> {
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             return Err(self.err(format!("mesh {mesh}: a primitive has no POSITION")));
         };
-        self.check_accessor(mesh, &pos_acc)?;
-        let normal_acc = prim.get(&gltf::Semantic::Normals);
+        self.check_accessor(mesh, &pos_acc, false)?;
+        // The crate's readers underflow on an empty accessor: read none.
+        // Normals that do not match the positions one to one are dropped.
+        let normal_acc = prim
+            .get(&gltf::Semantic::Normals)
+            .filter(|a| a.count() == pos_acc.count());
         if let Some(a) = &normal_acc {
-            self.check_accessor(mesh, a)?;
+            self.check_accessor(mesh, a, false)?;
         }
         if let Some(a) = prim.indices() {
-            self.check_accessor(mesh, &a)?;
+            self.check_accessor(mesh, &a, true)?;
+        }
+        if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
+            return Ok(MeshData::default());
         }
         let buffers = &self.buffers;
         let reader = prim.reader(|b| buffers.get(b.index()).copied());
