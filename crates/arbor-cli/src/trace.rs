@@ -11,7 +11,7 @@ use anyhow::Context;
 use arbor::mesh::load_mesh_file;
 use arbor_accel::{
     intersect_triangle_sheared, Accel, AccelKind, Accelerator, NoCounters, Ray, RayShear,
-    TriangleMesh, Vec3,
+    TriangleBvh, TriangleMesh, Vec3,
 };
 use clap::Args;
 use rayon::prelude::*;
@@ -113,14 +113,13 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         let mut built = None;
         for _ in 0..repeat {
             let start = Instant::now();
-            let accel = Accel::build(kind, &mesh);
-            let tris = Triangles::new(&mesh);
+            let tracer = MeshTracer::build(kind, &mesh);
             best = best.min(ms_since(start));
-            built = Some((accel, tris));
+            built = Some(tracer);
         }
         (built, best)
     });
-    let Some((accel, tris)) = built else {
+    let Some(tracer) = built else {
         anyhow::bail!("internal error: no accelerator was built");
     };
 
@@ -129,7 +128,7 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         let mut occ = vec![0u8; rays.len()];
         for _ in 0..repeat {
             let start = Instant::now();
-            pool.install(|| trace_occluded(&accel, &tris, &rays, &mut occ));
+            pool.install(|| trace_occluded(&tracer, &rays, &mut occ));
             times.push(ms_since(start));
         }
         let hits = occ.iter().filter(|&&o| o != 0).count();
@@ -138,7 +137,7 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         let mut found = vec![Hit::NONE; rays.len()];
         for _ in 0..repeat {
             let start = Instant::now();
-            pool.install(|| trace_closest(&accel, &tris, &rays, &mut found));
+            pool.install(|| trace_closest(&tracer, &rays, &mut found));
             times.push(ms_since(start));
         }
         let hits = found.iter().filter(|h| h.prim != MISS).count();
@@ -187,12 +186,49 @@ fn ms_since(start: Instant) -> f64 {
     start.elapsed().as_secs_f64() * 1e3
 }
 
+/// What traces the rays: the default structure's mesh-specialised form, or
+/// any other structure with the caller-side triangle test.
+enum MeshTracer {
+    /// [`TriangleBvh`]: the default `bvh-wide`, owning its triangles in leaf
+    /// order and testing four at a time; the same answers as `Generic` with
+    /// `bvh-wide`.
+    Triangles(TriangleBvh),
+    /// Any structure, each offered triangle tested here.
+    Generic(Accel, Triangles),
+}
+
+impl MeshTracer {
+    /// Builds `kind` over `mesh` (timed by the caller, as Embree times its
+    /// build including the copy of its buffers).
+    fn build(kind: AccelKind, mesh: &TriangleMesh) -> Self {
+        if kind == AccelKind::BvhWide {
+            MeshTracer::Triangles(TriangleBvh::build(mesh, &TriangleBvh::params()))
+        } else {
+            let accel = Accel::build(kind, mesh);
+            MeshTracer::Generic(accel, Triangles::new(mesh))
+        }
+    }
+}
+
 /// The closest hit of every ray, in parallel on the current pool.
-fn trace_closest(accel: &Accel, tris: &Triangles, rays: &[Ray], out: &mut [Hit]) {
+fn trace_closest(tracer: &MeshTracer, rays: &[Ray], out: &mut [Hit]) {
     out.par_iter_mut()
         .zip(rays.par_iter())
         .with_min_len(RAYS_PER_TASK)
-        .for_each(|(slot, ray)| *slot = closest(accel, tris, ray));
+        .for_each(|(slot, ray)| {
+            *slot = match tracer {
+                MeshTracer::Triangles(bvh) => {
+                    bvh.closest(ray, &mut NoCounters)
+                        .map_or(Hit::NONE, |h| Hit {
+                            t: h.hit.t,
+                            prim: h.prim,
+                            u: h.hit.u,
+                            v: h.hit.v,
+                        })
+                }
+                MeshTracer::Generic(accel, tris) => closest(accel, tris, ray),
+            }
+        });
 }
 
 /// The closest hit of one ray. The shear depends only on the direction, so it
@@ -220,16 +256,21 @@ fn closest(accel: &Accel, tris: &Triangles, ray: &Ray) -> Hit {
 }
 
 /// Whether each ray is blocked, in parallel on the current pool.
-fn trace_occluded(accel: &Accel, tris: &Triangles, rays: &[Ray], out: &mut [u8]) {
+fn trace_occluded(tracer: &MeshTracer, rays: &[Ray], out: &mut [u8]) {
     out.par_iter_mut()
         .zip(rays.par_iter())
         .with_min_len(RAYS_PER_TASK)
         .for_each(|(slot, ray)| {
-            let shear = RayShear::new(ray);
-            let blocked = accel.occluded(ray, &mut NoCounters, |prim, r| {
-                let [a, b, c] = tris.get(prim);
-                intersect_triangle_sheared(r, &shear, a, b, c).is_some()
-            });
+            let blocked = match tracer {
+                MeshTracer::Triangles(bvh) => bvh.occluded(ray, &mut NoCounters),
+                MeshTracer::Generic(accel, tris) => {
+                    let shear = RayShear::new(ray);
+                    accel.occluded(ray, &mut NoCounters, |prim, r| {
+                        let [a, b, c] = tris.get(prim);
+                        intersect_triangle_sheared(r, &shear, a, b, c).is_some()
+                    })
+                }
+            };
             *slot = u8::from(blocked);
         });
 }
