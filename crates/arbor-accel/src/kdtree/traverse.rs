@@ -1,0 +1,170 @@
+//! Front-to-back traversal of the k-d tree.
+
+use std::mem::MaybeUninit;
+
+use super::{KdNode, KdTree, STACK_SIZE};
+use crate::util::{offer_any, widen_down, widen_up, Mailbox};
+use crate::{AccelStats, Accelerator, Counters, Ray};
+
+impl KdTree {
+    /// Walks the leaves the ray passes, front to back, calling `visit` with
+    /// each leaf's primitives and the current ray (which `visit` may shrink)
+    /// until it returns `true`. Nodes that begin beyond `ray.tmax` are
+    /// skipped, so once a hit is found only the regions that can still hold
+    /// a closer one are visited.
+    ///
+    /// Each node's parameter interval is widened by the rounding bound of
+    /// the split distance, so every node's interval contains the exact one
+    /// and culling against the exact hit distance never drops a closer hit.
+    #[inline(always)]
+    // `!(a < b)` is meant: it is true when either side is NaN.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn walk<C: Counters>(
+        &self,
+        ray: &mut Ray,
+        counters: &mut C,
+        mut visit: impl FnMut(&[u32], &mut Ray, &mut C) -> bool,
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        let inv = ray.inv_dir();
+        let wide = Ray {
+            tmax: widen_up(ray.tmax),
+            ..*ray
+        };
+        let Some((t0, t1)) = self.bounds.intersect(&wide, inv) else {
+            return;
+        };
+        // Per ray, once: origin and reciprocal direction as arrays (indexed
+        // by the node's axis without a match), and which child comes first
+        // along each axis (0 = below, 1 = above).
+        let origin = ray.origin.to_array();
+        let inv = inv.to_array();
+        let first_offset = inv.map(|d| u32::from(d < 0.0));
+        // Uninitialised: zeroing 768 bytes per ray would cost more than
+        // most traversals (entries are written before they are read).
+        let mut stack = [MaybeUninit::<(u32, f32, f32)>::uninit(); STACK_SIZE];
+        let mut sp = 0;
+        let nodes = &self.nodes[..];
+        let (mut node, mut ta, mut tb) = (0usize, widen_down(t0), t1);
+        loop {
+            counters.node();
+            let n = nodes[node];
+            if !n.is_leaf() {
+                let axis = n.axis();
+                let ts = (n.split() - origin[axis]) * inv[axis];
+                let (lo, hi) = (widen_down(ts), widen_up(ts));
+                let off = first_offset[axis];
+                let children = n.children();
+                // The near child's interval is [ta, min(tb, hi)], the far
+                // child's [max(ta, lo), tb]. A ray inside the split plane
+                // (ts NaN) fails both negated tests and visits both children
+                // with the whole interval (min/max ignore NaN).
+                let near = !(hi < ta);
+                let far = !(lo > tb.min(ray.tmax));
+                if near {
+                    if far {
+                        debug_assert!(sp < STACK_SIZE);
+                        stack[sp] = MaybeUninit::new((children + (off ^ 1), ta.max(lo), tb));
+                        sp += 1;
+                    }
+                    node = (children + off) as usize;
+                    tb = tb.min(hi);
+                } else {
+                    // hi < ta <= tb implies far.
+                    node = (children + (off ^ 1)) as usize;
+                    ta = ta.max(lo);
+                }
+                continue;
+            }
+            let prims = n.leaf_prims(&self.prims);
+            if !prims.is_empty() && visit(prims, ray, counters) {
+                return;
+            }
+            // Next stacked node that may still hold a closer hit.
+            loop {
+                if sp == 0 {
+                    return;
+                }
+                sp -= 1;
+                // SAFETY: entries below `sp` were written before `sp` passed them.
+                let (nd, a, b) = unsafe { stack[sp].assume_init() };
+                if a <= ray.tmax {
+                    (node, ta, tb) = (nd as usize, a, b);
+                    break;
+                }
+            }
+        }
+    }
+}
+
+impl Accelerator for KdTree {
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        for &p in &self.unbounded {
+            counters.test();
+            if let Some(t) = hit(p, &ray) {
+                ray.tmax = ray.tmax.min(t);
+            }
+        }
+        // A primitive reaches into several leaves; the mailbox tests it once.
+        // A hit found in one leaf may lie beyond it, in a later leaf: that is
+        // fine, the walk only skips nodes that begin beyond `tmax`, so it
+        // stops exactly when no unvisited region can hold a closer hit.
+        let mut mailbox = Mailbox::new();
+        self.walk(&mut ray, counters, |prims, ray, counters| {
+            for &p in prims {
+                if mailbox.insert(p) {
+                    counters.test();
+                    if let Some(t) = hit(p, ray) {
+                        ray.tmax = ray.tmax.min(t);
+                    }
+                }
+            }
+            false
+        });
+    }
+
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        if offer_any(&self.unbounded, ray, counters, &mut hit) {
+            return true;
+        }
+        let mut found = false;
+        let mut mailbox = Mailbox::new();
+        let mut walk_ray = *ray;
+        self.walk(&mut walk_ray, counters, |prims, r, counters| {
+            for &p in prims {
+                if mailbox.insert(p) {
+                    counters.test();
+                    if hit(p, r) {
+                        found = true;
+                        return true;
+                    }
+                }
+            }
+            false
+        });
+        found
+    }
+
+    fn stats(&self) -> AccelStats {
+        AccelStats {
+            nodes: self.nodes.len(),
+            leaves: self.nodes.iter().filter(|n| n.is_leaf()).count(),
+            max_depth: self.max_depth,
+            memory_bytes: std::mem::size_of::<Self>()
+                + self.nodes.len() * std::mem::size_of::<KdNode>()
+                + (self.prims.len() + self.unbounded.len()) * 4,
+            sah_cost: self.sah_cost,
+        }
+    }
+}
