@@ -163,3 +163,18 @@ fn gltf_buffer_that_is_not_a_file() {
     let e = gltf::parse(json, Path::new("dev.gltf"), Some(Path::new("/tmp"))).unwrap_err();
     assert!(e.message.contains("not a readable file"), "{e}");
 }
+
+/// `crash-8aa3d1d5c49ec03e2a2b6db87e8f16bff80903f1` (found by the fuzzer): a
+/// GLB whose header gives a total length of 11; the crate computed
+/// `length - 12`, an overflow panic in a debug build.
+#[test]
+fn glb_length_shorter_than_its_header() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../fuzz/artifacts/gltf/crash-8aa3d1d5c49ec03e2a2b6db87e8f16bff80903f1");
+    let e = gltf::parse(&std::fs::read(&file).unwrap(), &file, None).unwrap_err();
+    assert!(e.message.contains("shorter than the header"), "{e}");
+    let mut glb = b"glTF\x02\0\0\0\x0b\0\0\0".to_vec();
+    assert!(gltf::parse(&glb, &file, None).is_err());
+    glb[8] = 12;
+    assert!(gltf::parse(&glb, &file, None).is_err());
+}

@@ -45,6 +45,19 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     if bytes.is_empty() {
         return Err(MeshError::file(path, "the file is empty"));
     }
+    // A GLB header's total length below the header's own 12 bytes: the
+    // crate subtracts 12 from it unchecked (an overflow panic in a debug
+    // build).
+    if bytes.starts_with(b"glTF") {
+        if let Some(&[a, b, c, d]) = bytes.get(8..12) {
+            if u32::from_le_bytes([a, b, c, d]) < 12 {
+                return Err(MeshError::file(
+                    path,
+                    "the GLB header gives a length shorter than the header",
+                ));
+            }
+        }
+    }
     let invalid = |e: gltf::Error| MeshError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
