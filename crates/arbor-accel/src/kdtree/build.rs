@@ -205,7 +205,13 @@ fn sweep_axis(
         if pos > lo && pos < hi {
             let ab = (cap + perim * (pos - lo)) * inv_area;
             let aa = (cap + perim * (hi - pos)) * inv_area;
-            for planar_below in [true, false] {
+            // With no planar references both assignments cost the same.
+            let choices: &[bool] = if planars == 0 {
+                &[true]
+            } else {
+                &[true, false]
+            };
+            for &planar_below in choices {
                 let (b, a) = if planar_below {
                     (nb + planars, na)
                 } else {
@@ -260,22 +266,16 @@ fn side_of(b: &Aabb, split: &Split) -> u8 {
     }
 }
 
-/// Merges two lists sorted by [`Event::key`] into one.
-pub(super) fn merge(a: &[Event], b: &[Event]) -> Vec<Event> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if a[i].key() <= b[j].key() {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
-        }
+/// Appends `e` to `out`, after the events of `new[*next..]` (sorted by
+/// [`Event::key`]) that sort before it.
+#[inline(always)]
+fn push_merged(out: &mut Vec<Event>, new: &[Event], next: &mut usize, e: Event) {
+    let key = e.key();
+    while *next < new.len() && new[*next].key() < key {
+        out.push(new[*next]);
+        *next += 1;
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
+    out.push(e);
 }
 
 /// Splits `node` at `split` into its below and above children, keeping every
@@ -345,18 +345,7 @@ pub(super) fn split_node<P: Primitives + ?Sized>(
     }
 
     let split_axis = |axis: usize, events: Vec<Event>| {
-        // Events of one-sided references, in order, renumbered.
-        let mut kept_below = Vec::with_capacity(events.len());
-        let mut kept_above = Vec::with_capacity(events.len());
-        for e in events {
-            let i = e.index();
-            match sides[i] {
-                BELOW => kept_below.push(Event::new(e.pos, e.kind(), below_index[i])),
-                ABOVE => kept_above.push(Event::new(e.pos, e.kind(), above_index[i])),
-                _ => {}
-            }
-        }
-        // Events of the clipped straddlers, sorted, merged in.
+        // Events of the clipped straddlers, sorted (there are few).
         let mut new_below = Vec::new();
         let mut new_above = Vec::new();
         for (&i, (cb, ca)) in straddlers.iter().zip(&clipped) {
@@ -369,10 +358,30 @@ pub(super) fn split_node<P: Primitives + ?Sized>(
         }
         new_below.sort_unstable_by_key(|e| e.key());
         new_above.sort_unstable_by_key(|e| e.key());
-        (
-            merge(&kept_below, &new_below),
-            merge(&kept_above, &new_above),
-        )
+        // One pass over the parent's events: those of one-sided references
+        // go to their child, in order and renumbered, with the new events
+        // merged in as they come. (Capacity beyond what is written is never
+        // touched, so over-reserving costs address space, not memory.)
+        let mut below = Vec::with_capacity(events.len() + new_below.len());
+        let mut above = Vec::with_capacity(events.len() + new_above.len());
+        let (mut nb, mut na) = (0, 0);
+        for e in events {
+            let i = e.index();
+            match sides[i] {
+                BELOW => {
+                    let e = Event::new(e.pos, e.kind(), below_index[i]);
+                    push_merged(&mut below, &new_below, &mut nb, e);
+                }
+                ABOVE => {
+                    let e = Event::new(e.pos, e.kind(), above_index[i]);
+                    push_merged(&mut above, &new_above, &mut na, e);
+                }
+                _ => {}
+            }
+        }
+        below.extend_from_slice(&new_below[nb..]);
+        above.extend_from_slice(&new_above[na..]);
+        (below, above)
     };
     let [ex, ey, ez] = events;
     let ((bx, ax), ((by, ay), (bz, az))) = if parallel {
@@ -495,5 +504,233 @@ pub(super) fn build_into<P: Primitives + ?Sized>(
     } else {
         build_into(ctx, below, depth + 1, out, children);
         build_into(ctx, above, depth + 1, out, children + 1);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::util::prepare;
+    use crate::{TriangleMesh, Vec3};
+
+    /// 300 triangles of assorted sizes and slopes, some axis-aligned (flat
+    /// boxes give planar events), a few sharing the same planes.
+    fn mesh() -> TriangleMesh {
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        for i in 0..300u32 {
+            let f = i as f32;
+            let c = Vec3::new(
+                (f * 0.618).fract(),
+                (f * 0.414).fract(),
+                (f * 0.732).fract(),
+            ) * 8.0
+                - 2.0;
+            let s = 0.2 + 2.0 * (f * 0.37).fract();
+            let (a, b) = if i % 7 == 0 {
+                // Flat in z, on a shared plane.
+                (Vec3::new(s, 0.0, 0.0), Vec3::new(0.0, s, 0.0))
+            } else {
+                (
+                    Vec3::new(s, (f * 1.3).sin() * s, 0.4 * s),
+                    Vec3::new((f * 0.7).cos() * s, s, -0.6 * s),
+                )
+            };
+            let c = if i % 7 == 0 {
+                Vec3::new(c.x, c.y, 1.0)
+            } else {
+                c
+            };
+            v.extend([c, c + a, c + b]);
+            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        TriangleMesh::new(v, t)
+    }
+
+    fn root(m: &TriangleMesh) -> BuildNode {
+        let prep = prepare(m);
+        BuildNode::root(prep.bounds, prep.refs)
+    }
+
+    /// The events a node's references should have, freshly generated.
+    fn expected_events(node: &BuildNode, axis: usize) -> Vec<Event> {
+        let mut ev = Vec::new();
+        for (i, (_, b)) in node.refs.iter().enumerate() {
+            push_events(&mut ev, b, axis, i as u32);
+        }
+        ev.sort_unstable_by_key(|e| e.key());
+        ev
+    }
+
+    /// Splits `node` down `levels` levels, calling `check` on every child.
+    fn descend(
+        m: &TriangleMesh,
+        node: BuildNode,
+        levels: usize,
+        params: &KdParams,
+        check: &mut dyn FnMut(&BuildNode, &BuildNode),
+    ) {
+        if levels == 0 || node.refs.len() < 2 {
+            return;
+        }
+        let Some(split) = find_split(&node, params) else {
+            return;
+        };
+        let parent_bounds = node.bounds;
+        let (b, a) = split_node(m, node, &split, params);
+        assert_eq!(b.bounds.max[split.axis], split.pos);
+        assert_eq!(a.bounds.min[split.axis], split.pos);
+        assert!(parent_bounds.contains_box(&b.bounds) && parent_bounds.contains_box(&a.bounds));
+        let parent = BuildNode {
+            bounds: parent_bounds,
+            refs: Vec::new(),
+            events: [Vec::new(), Vec::new(), Vec::new()],
+        };
+        check(&parent, &b);
+        check(&parent, &a);
+        descend(m, b, levels - 1, params, check);
+        descend(m, a, levels - 1, params, check);
+    }
+
+    #[test]
+    fn event_keys_order_like_positions_then_kinds() {
+        let ps = [-3.0f32, -1e-30, -0.0, 0.0, 1e-30, 2.0, f32::MAX];
+        let mut evs = Vec::new();
+        for (i, &p) in ps.iter().enumerate() {
+            for kind in [START, END, PLANAR] {
+                evs.push(Event::new(p, kind, i as u32));
+            }
+        }
+        evs.sort_unstable_by_key(|e| e.key());
+        for w in evs.windows(2) {
+            let (x, y) = (w[0], w[1]);
+            assert!(x.pos <= y.pos, "{x:?} {y:?}");
+            if x.pos == y.pos {
+                // -0.0 and 0.0 are one position: normalised, so kinds order.
+                assert_eq!(x.pos.to_bits(), y.pos.to_bits());
+                assert!((x.kind(), x.index()) < (y.kind(), y.index()), "{x:?} {y:?}");
+            }
+        }
+        assert_eq!(Event::new(-0.0, END, 0).pos.to_bits(), 0.0f32.to_bits());
+    }
+
+    #[test]
+    fn splitting_keeps_event_lists_sorted_and_exact() {
+        let m = mesh();
+        let params = KdParams::default();
+        let mut nodes = 0;
+        descend(&m, root(&m), 6, &params, &mut |_, child| {
+            nodes += 1;
+            for axis in 0..3 {
+                let ev = &child.events[axis];
+                // Strictly increasing keys: sorted, no duplicates.
+                assert!(ev.windows(2).all(|w| w[0].key() < w[1].key()));
+                // Exactly the events of the child's references (so none was
+                // lost, duplicated or left with a stale index or position).
+                assert_eq!(*ev, expected_events(child, axis));
+            }
+            // References keep the parent's relative order.
+            let ids: Vec<u32> = child.refs.iter().map(|r| r.0).collect();
+            assert!(ids.windows(2).all(|w| w[0] < w[1]));
+        });
+        assert!(nodes > 20, "only {nodes} nodes");
+    }
+
+    #[test]
+    fn merging_new_events_keeps_order() {
+        let kept: Vec<Event> = [0.0, 1.0, 1.0, 3.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| Event::new(p, START, i as u32))
+            .collect();
+        let new = vec![
+            Event::new(-1.0, END, 9),
+            Event::new(1.0, END, 7),
+            Event::new(1.0, START, 8),
+            Event::new(4.0, PLANAR, 6),
+        ];
+        let (mut out, mut next) = (Vec::new(), 0);
+        for &e in &kept {
+            push_merged(&mut out, &new, &mut next, e);
+        }
+        out.extend_from_slice(&new[next..]);
+        let mut want = [kept, new].concat();
+        want.sort_unstable_by_key(|e| e.key());
+        assert_eq!(out, want);
+    }
+
+    /// Points of triangle `tri` on a barycentric lattice, in f64.
+    fn samples(tri: [Vec3; 3]) -> Vec<glam::DVec3> {
+        let [a, b, c] = tri.map(|p| p.as_dvec3());
+        let k = 24;
+        let mut out = Vec::new();
+        for i in 0..=k {
+            for j in 0..=k - i {
+                let (u, v) = (i as f64 / k as f64, j as f64 / k as f64);
+                out.push(a + (b - a) * u + (c - a) * v);
+            }
+        }
+        out
+    }
+
+    fn inside(b: &Aabb, p: glam::DVec3) -> bool {
+        (0..3).all(|k| f64::from(b.min[k]) <= p[k] && p[k] <= f64::from(b.max[k]))
+    }
+
+    fn strictly_inside(b: &Aabb, p: glam::DVec3) -> bool {
+        (0..3).all(|k| f64::from(b.min[k]) < p[k] && p[k] < f64::from(b.max[k]))
+    }
+
+    #[test]
+    fn clipped_boxes_contain_the_triangle_inside_the_child() {
+        let m = mesh();
+        let params = KdParams::default();
+        let mut checked = 0;
+        descend(&m, root(&m), 7, &params, &mut |_, child| {
+            let present: Vec<u32> = child.refs.iter().map(|r| r.0).collect();
+            for (id, b) in &child.refs {
+                assert!(child.bounds.contains_box(b), "box leaves the node");
+                for p in samples(m.triangle(*id as usize)) {
+                    if inside(&child.bounds, p) {
+                        assert!(inside(b, p), "triangle {id}: {p} outside {b:?}");
+                        checked += 1;
+                    }
+                }
+            }
+            // No triangle reaching into the child's interior was dropped (one
+            // that only touches a face may live on the other side only).
+            for id in 0..m.triangles.len() as u32 {
+                if samples(m.triangle(id as usize))
+                    .into_iter()
+                    .any(|p| strictly_inside(&child.bounds, p))
+                {
+                    assert!(present.contains(&id), "triangle {id} dropped");
+                }
+            }
+        });
+        assert!(checked > 1000, "only {checked} sample points checked");
+    }
+
+    #[test]
+    fn build_is_deterministic_across_threads_and_thresholds() {
+        let m = mesh();
+        let build = |threads: usize, threshold: usize| {
+            let params = KdParams {
+                parallel_threshold: threshold,
+                ..KdParams::default()
+            };
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| super::super::KdTree::build(&m, &params))
+        };
+        let reference = build(1, usize::MAX);
+        assert!(reference.nodes.len() > 100);
+        for (threads, threshold) in [(1, 8), (4, 2), (3, 64), (4, usize::MAX)] {
+            let t = build(threads, threshold);
+            assert_eq!(t.nodes, reference.nodes, "{threads} threads, {threshold}");
+            assert_eq!(t.prims, reference.prims, "{threads} threads, {threshold}");
+        }
     }
 }
