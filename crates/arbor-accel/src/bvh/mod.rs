@@ -6,6 +6,7 @@
 //! its cache line more often than not. Leaves name a contiguous run of the
 //! primitive index array.
 
+mod lanes;
 mod ploc;
 mod sweep;
 mod topdown;

@@ -1,21 +1,21 @@
 //! The wide BVH (`bvh-wide`): the binned-SAH binary tree collapsed into
-//! 4-ary nodes whose four child boxes are tested at once in SIMD lanes.
+//! 8-ary nodes whose eight child boxes are tested at once in SIMD lanes.
 //!
 //! Why it is faster than the binary [`Bvh`] it is built from, trick by trick:
 //!
-//! * **Collapsing**: every 4-ary node replaces (up to) three binary interior
-//!   nodes, so a ray visits about a third as many nodes and the traversal
-//!   loop's branches and stack operations shrink accordingly. A node takes
-//!   the children of its binary node and keeps opening the child with the
+//! * **Collapsing**: every 8-ary node replaces (up to) seven binary interior
+//!   nodes, so a ray visits far fewer nodes and the traversal loop's
+//!   branches and stack operations shrink accordingly. A node takes the
+//!   children of its binary node and keeps opening the child with the
 //!   largest surface area (the one rays most likely enter) until it holds
-//!   four; leaves stay the binary tree's leaves, primitive order included.
-//! * **SoA node layout**: a node stores its four children's boxes as six
-//!   4-lane vectors (`min x`, `min y`, ... each for children 0..3) followed by
-//!   the child references: 128 bytes, two cache lines, aligned to 64. The
-//!   slab test of all four children is then 6 subtractions and
-//!   multiplications, 6 min/max and a handful of compares on 128-bit
-//!   registers (`glam::Vec4` is SSE on x86-64, NEON on aarch64; no
-//!   `unsafe`, no runtime feature detection needed).
+//!   eight; leaves stay the binary tree's leaves, primitive order included.
+//! * **SoA node layout**: a node stores its eight children's boxes as six
+//!   8-lane rows (`min x`, `min y`, ... each for children 0..7) followed by
+//!   the child references: 256 bytes, four cache lines, aligned to 64. The
+//!   slab test of all eight children is then 6 subtractions and
+//!   multiplications, 6 min/max and a handful of compares on 256-bit AVX2
+//!   registers (`lanes.rs`: chosen at run time when the CPU has AVX2, with
+//!   the same arithmetic on two 4-lane `glam::Vec4` halves otherwise).
 //! * **Ordered traversal with a short stack**: the children a ray enters are
 //!   pushed farthest first with their entry distance, so the nearest is
 //!   visited next and a popped entry beyond the current closest hit is
@@ -23,8 +23,9 @@
 //! * **Early-out occlusion**: shadow rays skip the ordering and stop at the
 //!   first blocker.
 //!
-//! Correctness is the binary tree's: the lane arithmetic is, operation for
-//! operation, that of [`crate::Aabb::intersect`] (entry `max(near, tmin)`,
+//! Correctness is the binary tree's: the lane arithmetic (either
+//! implementation) is, operation for operation, that of
+//! [`crate::Aabb::intersect`] (entry `max(near, tmin)`,
 //! exit `far * SLAB_TFAR_SCALE` capped by a `tmax` widened by the slab
 //! rounding bound, a slab with `0 * inf = NaN` counted as `(-inf, inf)`), so
 //! a box the exact ray touches is never rejected, and every child box is
@@ -32,111 +33,25 @@
 
 use std::mem::MaybeUninit;
 
-use glam::{BVec4A, Vec4};
-
+use super::lanes::{needs_nan_care, BoxLanes, Node8, Portable, WIDTH};
 use super::{Bvh, BvhBuilder, BvhParams, STACK_SIZE};
-use crate::aabb::SLAB_TFAR_SCALE;
 use crate::util::{offer_any, offer_closest, widen_up};
 use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
 
-/// Child slot holding nothing.
-const EMPTY: u32 = u32::MAX;
-
-/// Stack entries: each visited node pushes at most three siblings beyond
+/// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
 /// bounded by the binary tree's.
-const WIDE_STACK: usize = 3 * STACK_SIZE;
+const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
 
-/// Four children: their boxes in lanes, then what each child is.
-/// `child[i]` is a node index (`count[i] == 0`), the first primitive slot of
-/// a leaf (`count[i] > 0` primitives), or [`EMPTY`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))]
-struct Node4 {
-    min: [Vec4; 3],
-    max: [Vec4; 3],
-    child: [u32; 4],
-    count: [u32; 4],
-}
-
-const _: () = assert!(std::mem::size_of::<Node4>() == 128);
-
-impl Node4 {
-    const EMPTY: Node4 = Node4 {
-        min: [Vec4::ZERO; 3],
-        max: [Vec4::ZERO; 3],
-        child: [EMPTY; 4],
-        count: [0; 4],
-    };
-}
-
-/// A 4-wide BVH over any [`Primitives`], built by collapsing the binned-SAH
+/// An 8-wide BVH over any [`Primitives`], built by collapsing the binned-SAH
 /// binary [`Bvh`].
 #[derive(Clone, Debug, Default)]
 pub struct WideBvh {
-    nodes: Vec<Node4>,
+    nodes: Vec<Node8>,
     prims: Vec<u32>,
     unbounded: Vec<u32>,
     max_depth: usize,
     sah_cost: Option<f64>,
-}
-
-/// The ray in lanes.
-struct Lanes {
-    origin: [Vec4; 3],
-    inv: [Vec4; 3],
-    tmin: Vec4,
-}
-
-impl Lanes {
-    fn new(ray: &Ray) -> Self {
-        let inv = ray.inv_dir();
-        Lanes {
-            origin: [
-                Vec4::splat(ray.origin.x),
-                Vec4::splat(ray.origin.y),
-                Vec4::splat(ray.origin.z),
-            ],
-            inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
-            tmin: Vec4::splat(ray.tmin),
-        }
-    }
-
-    /// Whether [`Lanes::hit`] needs its NaN fix-up for `ray`.
-    fn needs_nan_care(ray: &Ray) -> bool {
-        !(ray.origin.is_finite() && ray.dir.is_finite() && ray.inv_dir().is_finite())
-    }
-
-    /// Entry distances of the four children and which of them the ray
-    /// touches before `tmax` (already widened by the caller).
-    ///
-    /// `NAN_SAFE = false` is the fast path for rays whose origin and
-    /// direction are finite and whose direction has no zero component:
-    /// then `(bound - origin) * inv` is never NaN (no `0 * inf`, and `inv`
-    /// is never 0), so the on-plane fix-up (four of every thirteen lane
-    /// operations) can be skipped with the same results.
-    #[inline(always)]
-    fn hit<const NAN_SAFE: bool>(&self, n: &Node4, tmax: f32) -> (Vec4, BVec4A) {
-        let mut near = self.tmin;
-        let mut far = Vec4::INFINITY;
-        for a in 0..3 {
-            let t0 = (n.min[a] - self.origin[a]) * self.inv[a];
-            let t1 = (n.max[a] - self.origin[a]) * self.inv[a];
-            let (lo, hi) = if NAN_SAFE {
-                let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
-                (
-                    Vec4::select(on_plane, Vec4::NEG_INFINITY, t0.min(t1)),
-                    Vec4::select(on_plane, Vec4::INFINITY, t0.max(t1)),
-                )
-            } else {
-                (t0.min(t1), t0.max(t1))
-            };
-            near = near.max(lo);
-            far = far.min(hi);
-        }
-        let exit = (far * SLAB_TFAR_SCALE).min(Vec4::splat(tmax));
-        (near, near.cmple(exit))
-    }
 }
 
 impl WideBvh {
@@ -155,14 +70,14 @@ impl WideBvh {
         if bn.is_empty() {
             return wide;
         }
-        wide.nodes.reserve(bn.len() / 2 + 1);
+        wide.nodes.reserve(bn.len() / 4 + 1);
         // (binary node whose children fill the wide node, wide node, depth)
         let mut todo = vec![(0usize, 0usize, 0usize)];
-        wide.nodes.push(Node4::EMPTY);
+        wide.nodes.push(Node8::EMPTY);
         while let Some((b, w, depth)) = todo.pop() {
             wide.max_depth = wide.max_depth.max(depth);
-            // Up to four children in a fixed array (no allocation per node).
-            let mut kids = [0usize; 4];
+            // Up to eight children in a fixed array (no allocation per node).
+            let mut kids = [0usize; WIDTH];
             let mut len = if bn[b].is_leaf() {
                 // Only a root leaf gets here: one child, itself.
                 kids[0] = b;
@@ -172,7 +87,7 @@ impl WideBvh {
                 kids[1] = bn[b].offset as usize;
                 2
             };
-            while len < 4 {
+            while len < WIDTH {
                 let mut open = None;
                 let mut best = f32::NEG_INFINITY;
                 for (i, &k) in kids[..len].iter().enumerate() {
@@ -190,7 +105,7 @@ impl WideBvh {
                 len += 1;
             }
             let kids = &kids[..len];
-            let mut node = Node4::EMPTY;
+            let mut node = Node8::EMPTY;
             for (lane, &k) in kids.iter().enumerate() {
                 let n = &bn[k];
                 for a in 0..3 {
@@ -203,7 +118,7 @@ impl WideBvh {
                     wide.max_depth = wide.max_depth.max(depth + 1);
                 } else {
                     let index = wide.nodes.len();
-                    wide.nodes.push(Node4::EMPTY);
+                    wide.nodes.push(Node8::EMPTY);
                     node.child[lane] = index as u32;
                     todo.push((k, index, depth + 1));
                 }
@@ -251,7 +166,7 @@ impl Accelerator for WideBvh {
                 .count(),
             max_depth: self.max_depth,
             memory_bytes: std::mem::size_of::<Self>()
-                + self.nodes.len() * std::mem::size_of::<Node4>()
+                + self.nodes.len() * std::mem::size_of::<Node8>()
                 + (self.prims.len() + self.unbounded.len()) * 4,
             sah_cost: self.sah_cost,
         }
@@ -282,10 +197,16 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return;
         }
-        if Lanes::needs_nan_care(&ray) {
-            self.closest_in::<true, C, L>(ray, counters, leaf);
+        #[cfg(target_arch = "x86_64")]
+        if super::lanes::has_avx2() {
+            // SAFETY: the CPU has AVX2.
+            unsafe { self.closest_avx2(ray, counters, leaf) };
+            return;
+        }
+        if needs_nan_care(&ray) {
+            self.closest_in::<true, Portable, C, L>(ray, counters, leaf);
         } else {
-            self.closest_in::<false, C, L>(ray, counters, leaf);
+            self.closest_in::<false, Portable, C, L>(ray, counters, leaf);
         }
     }
 
@@ -301,20 +222,65 @@ impl WideBvh {
         if self.nodes.is_empty() {
             return false;
         }
-        if Lanes::needs_nan_care(ray) {
-            self.occluded_in::<true, C, L>(ray, counters, leaf)
+        #[cfg(target_arch = "x86_64")]
+        if super::lanes::has_avx2() {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.occluded_avx2(ray, counters, leaf) };
+        }
+        if needs_nan_care(ray) {
+            self.occluded_in::<true, Portable, C, L>(ray, counters, leaf)
         } else {
-            self.occluded_in::<false, C, L>(ray, counters, leaf)
+            self.occluded_in::<false, Portable, C, L>(ray, counters, leaf)
         }
     }
 
-    #[inline(always)]
-    fn closest_in<const NAN_SAFE: bool, C, L>(&self, mut ray: Ray, counters: &mut C, mut leaf: L)
+    /// [`WideBvh::closest_leaves`] compiled for AVX2: the whole traversal,
+    /// the caller's leaf test included, so that the lane test inlines.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn closest_avx2<C, L>(&self, ray: Ray, counters: &mut C, leaf: L)
     where
         C: Counters,
         L: FnMut(usize, usize, &mut Ray, &mut C),
     {
-        let lanes = Lanes::new(&ray);
+        use super::lanes::Avx2;
+        if needs_nan_care(&ray) {
+            self.closest_in::<true, Avx2, C, L>(ray, counters, leaf);
+        } else {
+            self.closest_in::<false, Avx2, C, L>(ray, counters, leaf);
+        }
+    }
+
+    /// [`WideBvh::occluded_leaves`] compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn occluded_avx2<C, L>(&self, ray: &Ray, counters: &mut C, leaf: L) -> bool
+    where
+        C: Counters,
+        L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+    {
+        use super::lanes::Avx2;
+        if needs_nan_care(ray) {
+            self.occluded_in::<true, Avx2, C, L>(ray, counters, leaf)
+        } else {
+            self.occluded_in::<false, Avx2, C, L>(ray, counters, leaf)
+        }
+    }
+
+    #[inline(always)]
+    fn closest_in<const NAN_SAFE: bool, B, C, L>(&self, mut ray: Ray, counters: &mut C, mut leaf: L)
+    where
+        B: BoxLanes,
+        C: Counters,
+        L: FnMut(usize, usize, &mut Ray, &mut C),
+    {
+        let lanes = B::new(&ray);
         // (child, count, entry distance), as in the node's slots.
         let mut stack = Stack::<(u32, u32, f32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
@@ -324,8 +290,7 @@ impl WideBvh {
                 leaf(child as usize, count as usize, &mut ray, counters);
             } else {
                 let n = &self.nodes[child as usize];
-                let (tnear, mask) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
-                let bits = mask.bitmask() & valid_mask(n);
+                let (tnear, bits) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
                 if bits.is_power_of_two() {
                     // One child entered (the common case deep in the tree):
                     // go there without touching the stack.
@@ -335,15 +300,14 @@ impl WideBvh {
                 }
                 if bits != 0 {
                     // Push the entered children farthest first, so the
-                    // nearest ends on top: insertion sort of at most four
+                    // nearest ends on top: insertion sort of at most eight
                     // entries on the stack itself.
                     let base = stack.len();
-                    let t = tnear.to_array();
                     let mut b = bits;
                     while b != 0 {
                         let lane = b.trailing_zeros() as usize;
                         b &= b - 1;
-                        stack.insert_sorted(base, (n.child[lane], n.count[lane], t[lane]));
+                        stack.insert_sorted(base, (n.child[lane], n.count[lane], tnear[lane]));
                     }
                 }
             }
@@ -361,17 +325,18 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn occluded_in<const NAN_SAFE: bool, C, L>(
+    fn occluded_in<const NAN_SAFE: bool, B, C, L>(
         &self,
         ray: &Ray,
         counters: &mut C,
         mut leaf: L,
     ) -> bool
     where
+        B: BoxLanes,
         C: Counters,
         L: FnMut(usize, usize, &Ray, &mut C) -> bool,
     {
-        let lanes = Lanes::new(ray);
+        let lanes = B::new(ray);
         let wide = widen_up(ray.tmax);
         let mut stack = Stack::<(u32, u32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
@@ -383,8 +348,7 @@ impl WideBvh {
                 }
             } else {
                 let n = &self.nodes[child as usize];
-                let (_, mask) = lanes.hit::<NAN_SAFE>(n, wide);
-                let mut bits = mask.bitmask() & valid_mask(n);
+                let (_, mut bits) = lanes.hit::<NAN_SAFE>(n, wide);
                 // Any order will do: the first blocker ends the query.
                 while bits != 0 {
                     let lane = bits.trailing_zeros() as usize;
@@ -400,18 +364,8 @@ impl WideBvh {
     }
 }
 
-/// Bit `i` set when slot `i` holds a child: empty slots have no meaningful
-/// box (an inverted box would pass the slab test), so they are masked out.
-#[inline(always)]
-fn valid_mask(n: &Node4) -> u32 {
-    u32::from(n.child[0] != EMPTY)
-        | u32::from(n.child[1] != EMPTY) << 1
-        | u32::from(n.child[2] != EMPTY) << 2
-        | u32::from(n.child[3] != EMPTY) << 3
-}
-
 /// The traversal stack: a fixed array left uninitialised. Zeroing a
-/// 2.3 KB array per ray was a fifth of all instructions of a diffuse-ray
+/// 2.3 KB array per ray (at 4 wide) was a fifth of all instructions of a diffuse-ray
 /// trace (callgrind: `memset` 231 M of 1116 M), more than the box tests.
 struct Stack<T: Copy> {
     items: [MaybeUninit<T>; WIDE_STACK],
@@ -485,5 +439,80 @@ impl Entry for (u32, u32, f32) {
 impl Entry for (u32, u32) {
     fn dist(&self) -> f32 {
         0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{intersect_triangle_sheared, RayCounts, RayShear, TriangleMesh, Vec3};
+
+    /// The AVX2 and portable traversals visit the same nodes and offer the
+    /// same triangles in the same order (the property tests, on an AVX2
+    /// machine, only see the AVX2 one).
+    #[test]
+    fn avx2_and_portable_traversals_agree() {
+        // A tilted, bumpy grid of triangles.
+        let n = 40u32;
+        let mut vertices = Vec::new();
+        for i in 0..=n {
+            for j in 0..=n {
+                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+                vertices.push(Vec3::new(x, y, 0.2 * x + 0.05 * (9.0 * y).sin()));
+            }
+        }
+        let mut triangles = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let at = |i: u32, j: u32| i * (n + 1) + j;
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let mesh = TriangleMesh::new(vertices, triangles);
+        let bvh = WideBvh::build(&mesh, &BvhParams::default());
+        assert!(bvh.nodes.len() > 10);
+        let trace = |portable: bool, ray: &Ray| {
+            let shear = RayShear::new(ray);
+            let mut offered = Vec::new();
+            let mut counts = RayCounts::default();
+            let leaf = |first: usize, count: usize, r: &mut Ray, c: &mut RayCounts| {
+                for &p in &bvh.prims[first..first + count] {
+                    c.test();
+                    offered.push(p);
+                    let [a, b, cc] = mesh.triangle(p as usize);
+                    if let Some(h) = intersect_triangle_sheared(r, &shear, a, b, cc) {
+                        r.tmax = r.tmax.min(h.t);
+                    }
+                }
+            };
+            let nan = needs_nan_care(ray);
+            if portable {
+                if nan {
+                    bvh.closest_in::<true, Portable, _, _>(*ray, &mut counts, leaf);
+                } else {
+                    bvh.closest_in::<false, Portable, _, _>(*ray, &mut counts, leaf);
+                }
+            } else {
+                bvh.closest_leaves(*ray, &mut counts, leaf);
+            }
+            (offered, counts)
+        };
+        let mut offered = 0;
+        for k in 0..2000u32 {
+            let f = k as f32;
+            let origin = Vec3::new(0.5 + (f * 0.37).sin(), 0.5 + (f * 0.73).cos(), 2.0);
+            let target = Vec3::new((f * 0.013) % 1.0, (f * 0.029) % 1.0, 0.1);
+            let mut dir = target - origin;
+            if k % 7 == 0 {
+                dir.x = 0.0; // a zero component: the NaN-safe path
+            }
+            let ray = Ray::new(origin, dir, 0.0, f32::INFINITY);
+            let a = trace(true, &ray);
+            let b = trace(false, &ray);
+            assert_eq!(a, b, "{ray:?}");
+            offered += a.0.len();
+        }
+        assert!(offered > 2000, "only {offered} triangles offered");
     }
 }
