@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Fuzz smoke: every cargo-fuzz target of fuzz/ for a short while over its
+# committed corpus; any crash, panic, failed check, timeout or memory blow-up
+# fails. Needs only the stable toolchain: cargo-fuzz wants nightly flags,
+# which RUSTC_BOOTSTRAP=1 allows (AddressSanitizer included, on x86_64 Linux).
+# Usage: .ci/fuzz-smoke.sh [SECONDS_PER_TARGET] (default 30).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-30}
+targets=(xml msh obj ply stl gltf accel)
+export RUSTC_BOOTSTRAP=1
+
+# libfuzzer-sys compiles libFuzzer, which is C++.
+if ! command -v c++ >/dev/null; then
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq g++ >/dev/null
+fi
+if ! cargo fuzz --version >/dev/null 2>&1; then
+  cargo install cargo-fuzz --locked
+fi
+cargo fuzz --version
+
+# One build for every target: release with debug assertions (overflow checks
+# on, as in a debug build), AddressSanitizer.
+started=$SECONDS
+cargo fuzz build -O -a
+echo "fuzz build: $((SECONDS - started)) s"
+
+# New inputs go to a scratch folder; the committed corpus is only read.
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+for t in "${targets[@]}"; do
+  mkdir -p "$scratch/$t"
+  corpus=("$scratch/$t")
+  [ -d "fuzz/corpus/$t" ] && corpus+=("fuzz/corpus/$t")
+  started=$SECONDS
+  if ! cargo fuzz run -O -a "$t" "${corpus[@]}" -- \
+      -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 \
+      >"$scratch/$t.log" 2>&1; then
+    tail -n 60 "$scratch/$t.log"
+    echo "fuzz smoke: target $t FAILED; the input is in fuzz/artifacts/$t/" >&2
+    exit 1
+  fi
+  echo "$t: $(grep -E '^Done [0-9]+ runs' "$scratch/$t.log") ($((SECONDS - started)) s)"
+done
