@@ -3,8 +3,85 @@
 use std::mem::MaybeUninit;
 
 use super::{KdNode, KdTree, STACK_SIZE};
-use crate::util::{offer_any, widen_down, widen_up, Mailbox};
+use crate::util::{offer_any, widen_down, widen_up};
 use crate::{AccelStats, Accelerator, Counters, Ray};
+
+/// Primitives already offered during one query (a primitive lives in every
+/// leaf it overlaps, and is tested once).
+///
+/// The first [`Seen::INLINE`] ids sit in a fixed array that is compared
+/// whole, with no data-dependent branch (the compiler turns it into a few
+/// vector compares); unused slots hold `u32::MAX`, never an id (ids fit in
+/// 30 bits). Later ids spill into a hash set, allocated only then. Per query
+/// and on the stack, so concurrent queries share nothing and "at most once"
+/// is exact.
+struct Seen {
+    ids: [u32; Seen::INLINE],
+    len: usize,
+    spill: Option<std::collections::HashSet<u32>>,
+}
+
+impl Seen {
+    const INLINE: usize = 32;
+
+    #[inline(always)]
+    fn new() -> Self {
+        Seen {
+            ids: [u32::MAX; Seen::INLINE],
+            len: 0,
+            spill: None,
+        }
+    }
+
+    /// Records `id`; returns whether it was new.
+    #[inline(always)]
+    fn insert(&mut self, id: u32) -> bool {
+        if self.ids.iter().fold(false, |seen, &x| seen | (x == id)) {
+            return false;
+        }
+        if self.len < Seen::INLINE {
+            self.ids[self.len] = id;
+            self.len += 1;
+            return true;
+        }
+        self.spill.get_or_insert_with(Default::default).insert(id)
+    }
+}
+
+/// The smaller of `a` and `b`, or `a` when `b` is NaN: one `minss`
+/// (`f32::min` also handles a NaN `a`, which never occurs here, at the cost
+/// of several instructions on the hottest path).
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if b < a {
+        b
+    } else {
+        a
+    }
+}
+
+/// The larger of `a` and `b`, or `a` when `b` is NaN (see [`min`]).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
+/// `if c { a } else { b }` without a branch.
+#[inline(always)]
+fn select_u32(c: bool, a: u32, b: u32) -> u32 {
+    let mask = u32::from(c).wrapping_neg();
+    (a & mask) | (b & !mask)
+}
+
+/// `if c { a } else { b }` without a branch (bit-exact, NaN included).
+#[inline(always)]
+fn select_f32(c: bool, a: f32, b: f32) -> f32 {
+    f32::from_bits(select_u32(c, a.to_bits(), b.to_bits()))
+}
 
 impl KdTree {
     /// Walks the leaves the ray passes, front to back, calling `visit` with
@@ -44,7 +121,9 @@ impl KdTree {
         let first_offset = inv.map(|d| u32::from(d < 0.0));
         // Uninitialised: zeroing 768 bytes per ray would cost more than
         // most traversals (entries are written before they are read).
-        let mut stack = [MaybeUninit::<(u32, f32, f32)>::uninit(); STACK_SIZE];
+        // One spare entry: the unconditional write happens at `sp` even when
+        // the path is as deep as the build allows.
+        let mut stack = [MaybeUninit::<(u32, f32, f32)>::uninit(); STACK_SIZE + 1];
         let mut sp = 0;
         let nodes = &self.nodes[..];
         let (mut node, mut ta, mut tb) = (0usize, widen_down(t0), t1);
@@ -60,22 +139,24 @@ impl KdTree {
                 // The near child's interval is [ta, min(tb, hi)], the far
                 // child's [max(ta, lo), tb]. A ray inside the split plane
                 // (ts NaN) fails both negated tests and visits both children
-                // with the whole interval (min/max ignore NaN).
+                // with the whole interval (`min`/`max` ignore a NaN second
+                // argument; `ta`, `tb` and `tmax` are never NaN).
                 let near = !(hi < ta);
-                let far = !(lo > tb.min(ray.tmax));
-                if near {
-                    if far {
-                        debug_assert!(sp < STACK_SIZE);
-                        stack[sp] = MaybeUninit::new((children + (off ^ 1), ta.max(lo), tb));
-                        sp += 1;
-                    }
-                    node = (children + off) as usize;
-                    tb = tb.min(hi);
-                } else {
-                    // hi < ta <= tb implies far.
-                    node = (children + (off ^ 1)) as usize;
-                    ta = ta.max(lo);
-                }
+                let far = !(lo > min(tb, ray.tmax));
+                // Which side the ray starts on is a coin toss for rays that
+                // begin inside the tree, so the choice is made without
+                // branches: the far child is written to the stack always and
+                // kept only when both children are entered; the next node and
+                // its interval are selected. (If neither test passes, which
+                // only rounding at the root can cause, the far child is
+                // visited needlessly, never wrongly.)
+                let (first, second) = (children + off, children + (off ^ 1));
+                let far_ta = max(ta, lo);
+                stack[sp] = MaybeUninit::new((second, far_ta, tb));
+                sp += usize::from(near & far);
+                node = select_u32(near, first, second) as usize;
+                ta = select_f32(near, ta, far_ta);
+                tb = select_f32(near, min(tb, hi), tb);
                 continue;
             }
             let prims = n.leaf_prims(&self.prims);
@@ -116,7 +197,7 @@ impl Accelerator for KdTree {
         // A hit found in one leaf may lie beyond it, in a later leaf: that is
         // fine, the walk only skips nodes that begin beyond `tmax`, so it
         // stops exactly when no unvisited region can hold a closer hit.
-        let mut mailbox = Mailbox::new();
+        let mut mailbox = Seen::new();
         self.walk(&mut ray, counters, |prims, ray, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
@@ -139,7 +220,7 @@ impl Accelerator for KdTree {
             return true;
         }
         let mut found = false;
-        let mut mailbox = Mailbox::new();
+        let mut mailbox = Seen::new();
         let mut walk_ray = *ray;
         self.walk(&mut walk_ray, counters, |prims, r, counters| {
             for &p in prims {
