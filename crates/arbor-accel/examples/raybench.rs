@@ -3,7 +3,7 @@
 //! building the whole CLI.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P]
+//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B]
 //! ```
 
 use std::time::Instant;
@@ -82,9 +82,11 @@ fn main() {
         .collect();
     for kind in args[2].split(',') {
         if kind == "triangles" {
-            let mut params = BvhParams::default();
+            let mut params = TriangleBvh::params();
             params.max_leaf_size = opt("--leaf", params.max_leaf_size);
-            params.traversal_cost = opt("--ct-percent", 100) as f32 / 100.0;
+            params.leaf_block = opt("--block", params.leaf_block);
+            params.traversal_cost =
+                opt("--ct-percent", (params.traversal_cost * 100.0) as usize) as f32 / 100.0;
             bench_triangle_bvh(&mesh, &rays, &pool, &params, repeat, occluded);
             continue;
         }

@@ -27,6 +27,49 @@ use crate::{RayShear, TriangleHit};
 /// Triangles tested together.
 pub(crate) const LANES: usize = 4;
 
+/// Up to four triangles stored for the edge stage: coordinate `c` of vertex
+/// `j` of the triangle in lane `k` is `v[j][c][k]`, so the stage loads each
+/// row straight into a register instead of gathering it (160 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
+pub(crate) struct Tri4 {
+    pub v: [[[f32; LANES]; 3]; 3],
+    /// The triangles' ids; [`Tri4::NO_ID`] in unused lanes.
+    pub ids: [u32; LANES],
+}
+
+impl Tri4 {
+    /// Id of an unused lane.
+    pub const NO_ID: u32 = u32::MAX;
+
+    /// Packs 1 to 4 triangles with their ids; unused lanes repeat the last
+    /// triangle (so their arithmetic is harmless) and are never reported.
+    pub fn new(tris: &[[Vec3; 3]], ids: &[u32]) -> Self {
+        debug_assert!(!tris.is_empty() && tris.len() <= LANES && ids.len() == tris.len());
+        let mut packed = Tri4 {
+            v: [[[0.0; LANES]; 3]; 3],
+            ids: [Tri4::NO_ID; LANES],
+        };
+        for k in 0..LANES {
+            let t = tris[k.min(tris.len() - 1)];
+            for (row, vertex) in packed.v.iter_mut().zip(t) {
+                for (lanes, coord) in row.iter_mut().zip(vertex.to_array()) {
+                    lanes[k] = coord;
+                }
+            }
+        }
+        packed.ids[..ids.len()].copy_from_slice(ids);
+        packed
+    }
+
+    /// The triangle in lane `k`.
+    #[inline(always)]
+    pub fn triangle(&self, k: usize) -> [Vec3; 3] {
+        let vertex = |j: usize| Vec3::new(self.v[j][0][k], self.v[j][1][k], self.v[j][2][k]);
+        [vertex(0), vertex(1), vertex(2)]
+    }
+}
+
 /// The edge stage's verdict for up to [`LANES`] triangles.
 pub(crate) struct EdgeVerdict {
     u: [f32; LANES],
@@ -39,21 +82,21 @@ pub(crate) struct EdgeVerdict {
     inside: u32,
 }
 
-/// The `f32` edge stage of the watertight test for `tris` (1 to 4
-/// triangles; missing lanes repeat the last triangle and are never reported).
+/// The `f32` edge stage of the watertight test for the first `count`
+/// triangles of `tris`.
 #[inline(always)]
-pub(crate) fn edge_stage(ray: &Ray, s: &RayShear, tris: &[[Vec3; 3]]) -> EdgeVerdict {
-    debug_assert!(!tris.is_empty() && tris.len() <= LANES);
+pub(crate) fn edge_stage(ray: &Ray, s: &RayShear, tris: &Tri4, count: usize) -> EdgeVerdict {
+    debug_assert!((1..=LANES).contains(&count));
     // The axis permutation as constants: indexing lanes by a runtime axis
     // would spill them to memory. Within one ray the arm never changes, so
     // the branch costs nothing.
     match (s.kx, s.ky) {
-        (1, 2) => stage::<1, 2, 0>(ray, s, tris),
-        (2, 1) => stage::<2, 1, 0>(ray, s, tris),
-        (2, 0) => stage::<2, 0, 1>(ray, s, tris),
-        (0, 2) => stage::<0, 2, 1>(ray, s, tris),
-        (0, 1) => stage::<0, 1, 2>(ray, s, tris),
-        _ => stage::<1, 0, 2>(ray, s, tris),
+        (1, 2) => stage::<1, 2, 0>(ray, s, tris, count),
+        (2, 1) => stage::<2, 1, 0>(ray, s, tris, count),
+        (2, 0) => stage::<2, 0, 1>(ray, s, tris, count),
+        (0, 2) => stage::<0, 2, 1>(ray, s, tris, count),
+        (0, 1) => stage::<0, 1, 2>(ray, s, tris, count),
+        _ => stage::<1, 0, 2>(ray, s, tris, count),
     }
 }
 
@@ -62,26 +105,13 @@ pub(crate) fn edge_stage(ray: &Ray, s: &RayShear, tris: &[[Vec3; 3]]) -> EdgeVer
 fn stage<const KX: usize, const KY: usize, const KZ: usize>(
     ray: &Ray,
     s: &RayShear,
-    tris: &[[Vec3; 3]],
+    tris: &Tri4,
+    count: usize,
 ) -> EdgeVerdict {
     debug_assert_eq!((s.kx, s.ky, s.kz), (KX, KY, KZ));
-    let last = tris.len() - 1;
-    let t = [
-        &tris[0],
-        &tris[1.min(last)],
-        &tris[2.min(last)],
-        &tris[3.min(last)],
-    ];
     let o = ray.origin.to_array();
     // Coordinate `c` of vertex `j` relative to the origin, in lanes.
-    let rel = |j: usize, c: usize| {
-        Vec4::new(
-            t[0][j].to_array()[c],
-            t[1][j].to_array()[c],
-            t[2][j].to_array()[c],
-            t[3][j].to_array()[c],
-        ) - Vec4::splat(o[c])
-    };
+    let rel = |j: usize, c: usize| Vec4::from_array(tris.v[j][c]) - Vec4::splat(o[c]);
     let (sx, sy) = (Vec4::splat(s.sx), Vec4::splat(s.sy));
     // The sheared coordinates of vertex `j`, and its relative coordinates in
     // the original axis order (for the error bound's sums).
@@ -114,7 +144,7 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
     let negative = u.cmplt(zero) | v.cmplt(zero) | w.cmplt(zero);
     let positive = u.cmpgt(zero) | v.cmpgt(zero) | w.cmpgt(zero);
     let mixed = negative & positive;
-    let valid = (1u32 << tris.len()) - 1;
+    let valid = (1u32 << count) - 1;
     EdgeVerdict {
         u: u.to_array(),
         v: v.to_array(),
@@ -139,9 +169,9 @@ impl EdgeVerdict {
         k: usize,
         ray: &Ray,
         s: &RayShear,
-        tri: [Vec3; 3],
+        tris: &Tri4,
     ) -> Option<TriangleHit> {
-        let [p0, p1, p2] = tri;
+        let [p0, p1, p2] = tris.triangle(k);
         if self.inside & (1 << k) != 0 {
             hit_from_certain_edges(ray, s, p0, p1, p2, self.u[k], self.v[k], self.w[k])
         } else {
@@ -180,6 +210,10 @@ mod tests {
         fn vec(&mut self) -> Vec3 {
             Vec3::new(self.coord(), self.coord(), self.coord())
         }
+    }
+
+    fn f32x3_bits(v: Vec3) -> [u32; 3] {
+        v.to_array().map(f32::to_bits)
     }
 
     fn same(a: Option<TriangleHit>, b: Option<TriangleHit>) -> bool {
@@ -227,11 +261,14 @@ mod tests {
                     }
                 })
                 .collect();
-            let verdict = edge_stage(&ray, &s, &tris);
+            let ids: Vec<u32> = (0..count as u32).collect();
+            let packed = Tri4::new(&tris, &ids);
+            let verdict = edge_stage(&ray, &s, &packed, count);
             for (k, tri) in tris.iter().enumerate() {
+                assert_eq!(packed.triangle(k).map(f32x3_bits), tri.map(f32x3_bits));
                 let scalar = intersect_triangle_sheared(&ray, &s, tri[0], tri[1], tri[2]);
                 let lane = if verdict.candidates(count) & (1 << k) != 0 {
-                    verdict.finish(k, &ray, &s, *tri)
+                    verdict.finish(k, &ray, &s, &packed)
                 } else {
                     rejected += 1;
                     None

@@ -113,6 +113,11 @@ pub struct BvhParams {
     pub traversal_cost: f32,
     /// SAH cost of one primitive test. Default 1.
     pub intersection_cost: f32,
+    /// Primitives a leaf tests together (the binned SAH builder): a leaf or
+    /// split side of `n` primitives costs `ceil(n / leaf_block)` tests, as
+    /// for [`crate::TriangleBvh`], which tests four triangles for the price
+    /// of one. Default 1 (one test per primitive).
+    pub leaf_block: usize,
     /// Bins per axis of the binned SAH builder (clamped to 2..=64). Default 16.
     pub bins: usize,
     /// PLOC's nearest-neighbour search radius in Morton order. Default 16.
@@ -129,6 +134,7 @@ impl Default for BvhParams {
             max_leaf_size: 8,
             traversal_cost: 1.0,
             intersection_cost: 1.0,
+            leaf_block: 1,
             bins: 16,
             ploc_radius: 16,
             parallel_threshold: 4096,

@@ -381,6 +381,8 @@ impl Splitter for Binned {
 /// cheaper than clearing bins and better than binning.
 fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
     let n = refs.len();
+    let block = params.leaf_block.max(1);
+    let tests = |n: usize| n.div_ceil(block) as f32;
     let mut best = (f32::INFINITY, 0);
     for i in 0..n {
         let rest = refs
@@ -389,7 +391,7 @@ fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
             .filter(|&(j, _)| j != i)
             .fold(B4::EMPTY, |acc, (_, r)| acc.grow(r.min, r.max));
         let one = B4::EMPTY.grow(refs[i].min, refs[i].max);
-        let cost = one.area() + rest.area() * (n - 1) as f32;
+        let cost = one.area() + rest.area() * tests(n - 1);
         if cost < best.0 {
             best = (cost, i);
         }
@@ -404,7 +406,7 @@ fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
             median_split(refs, b.largest_axis())
         };
     }
-    if n <= params.max_leaf_size && ci * n as f32 * area <= ct * area + ci * cost {
+    if n <= params.max_leaf_size && ci * tests(n) * area <= ct * area + ci * cost {
         return Split::Leaf;
     }
     refs.swap(0, i);
@@ -447,6 +449,9 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
         fill(Bins::new(), refs)
     };
     let (ct, ci) = (params.traversal_cost, params.intersection_cost);
+    // Tests a side of `n` primitives costs (see `BvhParams::leaf_block`).
+    let block = params.leaf_block.max(1) as u32;
+    let tests = |n: u32| n.div_ceil(block) as f32;
     // Costs are compared unnormalised: multiplied through by A(node). The
     // three axes are swept side by side so their dependency chains overlap.
     let mut right_area = [[0f32; 3]; B];
@@ -468,7 +473,7 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
             lacc[a] = lacc[a].union(&acc.b[a][i - 1]);
             nl[a] += acc.n[a][i - 1];
             let nr = total - nl[a];
-            let cost = lacc[a].area() * nl[a] as f32 + right_area[i][a] * nr as f32;
+            let cost = lacc[a].area() * tests(nl[a]) + right_area[i][a] * tests(nr);
             // Empty sides and flat axes are no split; strict `<` keeps the
             // first of equal candidates, so the choice is deterministic.
             if nl[a] != 0 && nr != 0 && scale[a] != 0.0 && cost < best_cost {
@@ -487,7 +492,10 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
     // Sampled nodes are far above any leaf size, so only full bins are
     // weighed against a leaf.
     let area = b.surface_area();
-    if stride == 1 && n <= params.max_leaf_size && ci * n as f32 * area <= ct * area + ci * cost {
+    if stride == 1
+        && n <= params.max_leaf_size
+        && ci * tests(n as u32) * area <= ct * area + ci * cost
+    {
         return Split::Leaf;
     }
     // A sampled reference on each side guarantees both sides are non-empty.

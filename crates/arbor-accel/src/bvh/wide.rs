@@ -185,6 +185,38 @@ impl WideBvh {
         &self.unbounded
     }
 
+    /// Every leaf as `(first, count)`, sorted by `first` (the binary tree's
+    /// primitive order, which keeps neighbours in space together).
+    pub(crate) fn leaves(&self) -> Vec<(u32, u32)> {
+        let mut leaves: Vec<(u32, u32)> = self
+            .nodes
+            .iter()
+            .flat_map(|n| n.child.iter().zip(&n.count))
+            .filter(|&(_, &count)| count > 0)
+            .map(|(&first, &count)| (first, count))
+            .collect();
+        leaves.sort_unstable();
+        leaves
+    }
+
+    /// Re-points every leaf: `first` becomes `f(first, count)`, for a caller
+    /// that stores the leaves' primitives its own way; the primitive slots
+    /// are handed over, as they no longer match the leaves.
+    pub(crate) fn into_leaf_storage(
+        mut self,
+        mut f: impl FnMut(u32, u32) -> u32,
+    ) -> (Self, Vec<u32>) {
+        for n in &mut self.nodes {
+            for i in 0..WIDTH {
+                if n.count[i] > 0 {
+                    n.child[i] = f(n.child[i], n.count[i]);
+                }
+            }
+        }
+        let prims = std::mem::take(&mut self.prims);
+        (self, prims)
+    }
+
     /// Closest-hit traversal (the unbounded primitives are the caller's):
     /// calls `leaf(first, count, ray, counters)` for every leaf the ray
     /// enters, nearest first; `leaf` shrinks `ray.tmax` to the hits it finds.
