@@ -178,6 +178,19 @@ fn bench_triangle_bvh(
     }
     times.sort_by(f64::total_cmp);
     let med = times[times.len() / 2];
+    let mut counts = arbor_accel::RayCounts::default();
+    for ray in rays {
+        if occluded {
+            bvh.occluded(ray, &mut counts);
+        } else {
+            bvh.closest(ray, &mut counts);
+        }
+    }
+    println!(
+        "  per ray: {:.2} node visits (leaves included), {:.2} triangle lanes tested",
+        counts.nodes as f64 / rays.len() as f64,
+        counts.tests as f64 / rays.len() as f64
+    );
     println!(
         "{:12} build {build:8.1} ms  trace median {med:8.1} ms  min {:8.1} ms  {:6.2} Mrays/s  {:5.1} B/tri  checksum {sum:x}",
         "triangles",
