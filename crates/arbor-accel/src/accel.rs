@@ -64,8 +64,8 @@ pub enum AccelKind {
     BvhSweep,
     /// BVH by bottom-up PLOC clustering (`bvh-cluster`).
     BvhCluster,
-    /// 4-wide BVH collapsed from the binned-SAH tree, SIMD box tests
-    /// (`bvh-wide`), the default: 1.3-1.8x faster than `bvh-sah` on buddha100k.
+    /// 8-wide BVH collapsed from the binned-SAH tree, SIMD box tests
+    /// (`bvh-wide`), the default and the fastest.
     BvhWide,
     /// Uniform grid (`grid`).
     Grid,
@@ -164,7 +164,7 @@ pub enum Accel {
     Grid(Grid),
     /// The k-d tree.
     KdTree(KdTree),
-    /// The 4-wide BVH.
+    /// The 8-wide BVH.
     Wide(WideBvh),
 }
 

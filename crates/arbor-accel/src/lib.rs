@@ -16,7 +16,7 @@
 //! really is ([`intersect_triangle`] guarantees this for triangles).
 //!
 //! Structures ([`AccelKind`] names them): [`List`] (brute force), [`Bvh`] with
-//! five builders ([`BvhBuilder`]), the 4-wide [`WideBvh`] collapsed from the
+//! five builders ([`BvhBuilder`]), the 8-wide [`WideBvh`] collapsed from the
 //! binned-SAH tree, the uniform [`Grid`] and the SAH [`KdTree`];
 //! [`Accel`] holds any of them. Bounding volumes: [`Aabb`], [`BoundingSphere`],
 //! [`Obb`]. The design, error bounds, constants and measurements are written up
