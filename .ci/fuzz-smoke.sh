@@ -28,6 +28,7 @@ echo "fuzz build: $((SECONDS - started)) s"
 # New inputs go to a scratch folder; the committed corpus is only read.
 scratch=$(mktemp -d)
 trap 'rm -rf "$scratch"' EXIT
+failed=()
 for t in "${targets[@]}"; do
   mkdir -p "$scratch/$t"
   corpus=("$scratch/$t")
@@ -36,9 +37,17 @@ for t in "${targets[@]}"; do
   if ! cargo fuzz run -O -a "$t" "${corpus[@]}" -- \
       -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2048 \
       >"$scratch/$t.log" 2>&1; then
-    tail -n 60 "$scratch/$t.log"
+    # The failed check first (the stack trace after it is long), then the
+    # end of the log with the input and how to reproduce it.
+    grep -A4 -m1 -E 'panicked at|ERROR: (libFuzzer|AddressSanitizer)' "$scratch/$t.log" || true
+    tail -n 30 "$scratch/$t.log"
     echo "fuzz smoke: target $t FAILED; the input is in fuzz/artifacts/$t/" >&2
-    exit 1
+    failed+=("$t")
+    continue
   fi
   echo "$t: $(grep -E '^Done [0-9]+ runs' "$scratch/$t.log") ($((SECONDS - started)) s)"
 done
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz smoke: failed: ${failed[*]}" >&2
+  exit 1
+fi
