@@ -478,7 +478,7 @@ pub(super) fn build_into<P: Primitives + ?Sized>(
     };
     // Automatic termination (Wald and Havran): a leaf as soon as no split is
     // estimated cheaper than testing every reference. (pbrt's tolerance of a
-    // few costlier splits in a row made trees 2-3x bigger for no measurable
+    // few costlier splits in a row made trees about 2x bigger for no measurable
     // speed-up with perfect splits.)
     if split.cost >= ctx.params.intersection_cost * n as f32 {
         return leaf(out, node);

@@ -26,8 +26,8 @@ const DEPTH_CAP: usize = STACK_SIZE - 4;
 /// The SAH estimate of a split is `(1 - bonus) · (c_t + c_i · (A_b/A · N_b
 /// + A_a/A · N_a))`, that of a leaf `c_i · N`; a node becomes a leaf when no
 /// split is cheaper. Only the ratio `c_i / c_t` and the bonus matter for the
-/// tree's shape. The defaults were chosen by measuring trace speed and
-/// memory on buddha100k, blob1m and stadium1m (`docs/acceleration.md`).
+/// tree's shape. The defaults were chosen by measuring traversal cost and
+/// memory on buddha100k's diffuse rays (`docs/acceleration.md`, "k-d tree").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdParams {
     /// Cost of one traversal step (`c_t`). Default 1.
