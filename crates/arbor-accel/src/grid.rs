@@ -190,6 +190,13 @@ impl Grid {
         let Some((t0, _)) = self.bounds.intersect(&wide, inv) else {
             return;
         };
+        if inv.is_nan() {
+            // A subnormal direction component (see `Ray::inv_dir`): the
+            // cells it crosses along that axis cannot be stepped through, so
+            // every cell's primitives are offered, with no early exit.
+            visit(&self.prims, f32::INFINITY, counters);
+            return;
+        }
         let mut p = ray.at(t0);
         if !p.is_finite() {
             // Only with a zero direction (t0 = -inf times 0): the ray stays

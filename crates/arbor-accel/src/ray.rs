@@ -29,10 +29,32 @@ impl Ray {
     }
 
     /// The per-component reciprocal of `dir` for [`crate::Aabb::intersect`]
-    /// (infinite for zero components).
+    /// and the structures' plane distances: infinite for zero components
+    /// (the ray is parallel to that axis), and NaN for nonzero components so
+    /// small (subnormal) that their reciprocal overflows.
+    ///
+    /// Why NaN there: `(plane - origin) * inf` would put every plane of that
+    /// axis at infinity, yet the true distance `(plane - origin) / dir` is
+    /// finite when the plane is as close to the origin as `dir` is small (a
+    /// fuzzed ray with components of `MIN_POSITIVE / 8` missed a box at
+    /// t = 6 this way). Every structure treats a NaN distance as "this axis
+    /// does not constrain the ray", which is conservative: such rays cost
+    /// more, but lose no hit.
     #[inline]
     pub fn inv_dir(&self) -> Vec3 {
-        self.dir.recip()
+        let inv = self.dir.recip();
+        let overflow = |d: f32, i: f32| {
+            if d != 0.0 && i.is_infinite() {
+                f32::NAN
+            } else {
+                i
+            }
+        };
+        Vec3::new(
+            overflow(self.dir.x, inv.x),
+            overflow(self.dir.y, inv.y),
+            overflow(self.dir.z, inv.z),
+        )
     }
 
     /// The point at parameter `t`.
