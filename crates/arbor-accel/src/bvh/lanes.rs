@@ -10,7 +10,7 @@
 //! `_mm256_min_ps(a, b)` is), so NaN lanes resolve identically too: a
 //! structure traced with either path visits the same nodes in the same order.
 
-use glam::Vec4;
+use glam::{Vec3, Vec4};
 
 use crate::aabb::SLAB_TFAR_SCALE;
 use crate::Ray;
@@ -22,31 +22,45 @@ pub(crate) const WIDTH: usize = 8;
 pub(crate) const EMPTY: u32 = u32::MAX;
 
 /// Eight children: their boxes in lanes, then what each child is.
+/// `bounds` holds six rows of eight lanes: the boxes' `min x, min y, min z,
+/// max x, max y, max z` (rows [`MIN`]` + a` and [`MAX`]` + a` for axis `a`).
 /// `child[i]` is a node index (`count[i] == 0`), the first primitive slot of
 /// a leaf (`count[i] > 0` primitives), or [`EMPTY`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(crate) struct Node8 {
-    pub min: [[f32; WIDTH]; 3],
-    pub max: [[f32; WIDTH]; 3],
+    pub bounds: [[f32; WIDTH]; 6],
     pub child: [u32; WIDTH],
     pub count: [u32; WIDTH],
 }
 
+/// Row of `Node8::bounds` holding the boxes' lower corners along x.
+pub(crate) const MIN: usize = 0;
+/// Row of `Node8::bounds` holding the boxes' upper corners along x.
+pub(crate) const MAX: usize = 3;
+
 const _: () = assert!(std::mem::size_of::<Node8>() == 256);
 
 impl Node8 {
-    /// A node with every slot empty.
+    /// A node with every slot empty. Empty slots hold the inverted infinite
+    /// box (`min = +inf`, `max = -inf`), which a ray with a finite origin
+    /// and finite, nonzero inverse direction never enters: its entry
+    /// distance is `+inf` and its exit `-inf`. Only the NaN-safe path, which
+    /// turns undefined slab distances into `(-inf, inf)`, masks them out.
     pub const EMPTY: Node8 = Node8 {
-        min: [[0.0; WIDTH]; 3],
-        max: [[0.0; WIDTH]; 3],
+        bounds: [
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
         child: [EMPTY; WIDTH],
         count: [0; WIDTH],
     };
 
-    /// Bit `i` set when slot `i` holds a child: empty slots have no
-    /// meaningful box (an inverted box would pass the slab test), so they
-    /// are masked out.
+    /// Bit `i` set when slot `i` holds a child.
     #[inline(always)]
     fn valid(&self) -> u32 {
         let mut bits = 0;
@@ -59,8 +73,8 @@ impl Node8 {
 
 /// A ray prepared for testing a node's eight boxes.
 pub(crate) trait BoxLanes {
-    /// Splats `ray` into lanes.
-    fn new(ray: &Ray) -> Self;
+    /// Splats `ray` into lanes; `inv` is `ray.inv_dir()`.
+    fn new(ray: &Ray, inv: Vec3) -> Self;
 
     /// Entry distances of the eight children and which of them (bit `i` for
     /// slot `i`, empty slots never) the ray touches before `tmax` (already
@@ -69,15 +83,35 @@ pub(crate) trait BoxLanes {
     /// `NAN_SAFE = false` is the fast path for rays whose origin and
     /// direction are finite and whose direction has no zero component:
     /// then `(bound - origin) * inv` is never NaN (no `0 * inf`, and `inv`
-    /// is never 0), so the on-plane fix-up can be skipped with the same
-    /// results.
+    /// is never 0 or NaN), so the on-plane fix-up can be skipped, and the
+    /// sign of `inv` tells in advance which plane of each slab is the near
+    /// one (`(min - o) * inv <= (max - o) * inv` for `inv > 0`, as rounding
+    /// is monotonic): the near distances come from the near rows alone, the
+    /// far ones from the far rows, with the very values `min`/`max` of both
+    /// would pick and without the six `min`/`max` (the trick Embree and pbrt
+    /// use). Empty slots need no mask there (see [`Node8::EMPTY`]).
     fn hit<const NAN_SAFE: bool>(&self, n: &Node8, tmax: f32) -> ([f32; WIDTH], u32);
 }
 
-/// Whether a ray needs the NaN fix-up of [`BoxLanes::hit`].
+/// Whether a ray with inverse direction `inv` needs the NaN fix-up of
+/// [`BoxLanes::hit`].
 #[inline(always)]
-pub(crate) fn needs_nan_care(ray: &Ray) -> bool {
-    !(ray.origin.is_finite() && ray.dir.is_finite() && ray.inv_dir().is_finite())
+pub(crate) fn needs_nan_care(ray: &Ray, inv: Vec3) -> bool {
+    !(ray.origin.is_finite() && ray.dir.is_finite() && inv.is_finite())
+}
+
+/// The rows of `Node8::bounds` holding each axis's near and far planes for
+/// a ray with inverse direction `inv` (meaningful when `inv` is finite).
+#[inline(always)]
+fn near_far_rows(inv: Vec3) -> ([usize; 3], [usize; 3]) {
+    let mut near = [0; 3];
+    let mut far = [0; 3];
+    for a in 0..3 {
+        let negative = inv[a].is_sign_negative();
+        near[a] = if negative { MAX + a } else { MIN + a };
+        far[a] = if negative { MIN + a } else { MAX + a };
+    }
+    (near, far)
 }
 
 /// Two 4-lane halves; works everywhere.
@@ -85,26 +119,31 @@ pub(crate) struct Portable {
     origin: [Vec4; 3],
     inv: [Vec4; 3],
     tmin: Vec4,
+    near: [usize; 3],
+    far: [usize; 3],
 }
 
 impl Portable {
     /// One half: children `4 * half .. 4 * half + 4`.
     #[inline(always)]
     fn half<const NAN_SAFE: bool>(&self, n: &Node8, half: usize, tmax: f32) -> (Vec4, u32) {
-        let row = |r: &[f32; WIDTH]| Vec4::from_slice(&r[4 * half..4 * half + 4]);
+        let row = |r: usize| Vec4::from_slice(&n.bounds[r][4 * half..4 * half + 4]);
         let mut near = self.tmin;
         let mut far = Vec4::INFINITY;
         for a in 0..3 {
-            let t0 = (row(&n.min[a]) - self.origin[a]) * self.inv[a];
-            let t1 = (row(&n.max[a]) - self.origin[a]) * self.inv[a];
             let (lo, hi) = if NAN_SAFE {
+                let t0 = (row(MIN + a) - self.origin[a]) * self.inv[a];
+                let t1 = (row(MAX + a) - self.origin[a]) * self.inv[a];
                 let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
                 (
                     Vec4::select(on_plane, Vec4::NEG_INFINITY, t0.min(t1)),
                     Vec4::select(on_plane, Vec4::INFINITY, t0.max(t1)),
                 )
             } else {
-                (t0.min(t1), t0.max(t1))
+                (
+                    (row(self.near[a]) - self.origin[a]) * self.inv[a],
+                    (row(self.far[a]) - self.origin[a]) * self.inv[a],
+                )
             };
             near = near.max(lo);
             far = far.min(hi);
@@ -116,8 +155,8 @@ impl Portable {
 
 impl BoxLanes for Portable {
     #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        let inv = ray.inv_dir();
+    fn new(ray: &Ray, inv: Vec3) -> Self {
+        let (near, far) = near_far_rows(inv);
         Portable {
             origin: [
                 Vec4::splat(ray.origin.x),
@@ -126,6 +165,8 @@ impl BoxLanes for Portable {
             ],
             inv: [Vec4::splat(inv.x), Vec4::splat(inv.y), Vec4::splat(inv.z)],
             tmin: Vec4::splat(ray.tmin),
+            near,
+            far,
         }
     }
 
@@ -136,7 +177,8 @@ impl BoxLanes for Portable {
         let mut near = [0.0; WIDTH];
         near[..4].copy_from_slice(&near0.to_array());
         near[4..].copy_from_slice(&near1.to_array());
-        (near, (bits0 | bits1 << 4) & n.valid())
+        let bits = bits0 | bits1 << 4;
+        (near, if NAN_SAFE { bits & n.valid() } else { bits })
     }
 }
 
@@ -147,7 +189,9 @@ pub(crate) use avx2::{has_avx2, Avx2};
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::{BoxLanes, Node8, EMPTY, WIDTH};
+    use glam::Vec3;
+
+    use super::{near_far_rows, BoxLanes, Node8, EMPTY, MAX, MIN, WIDTH};
     use crate::aabb::SLAB_TFAR_SCALE;
     use crate::Ray;
 
@@ -165,12 +209,14 @@ mod avx2 {
         origin: [__m256; 3],
         inv: [__m256; 3],
         tmin: __m256,
+        near: [usize; 3],
+        far: [usize; 3],
     }
 
     impl BoxLanes for Avx2 {
         #[inline(always)]
-        fn new(ray: &Ray) -> Self {
-            let inv = ray.inv_dir();
+        fn new(ray: &Ray, inv: Vec3) -> Self {
+            let (near, far) = near_far_rows(inv);
             // SAFETY: AVX is available (see the type's documentation).
             unsafe {
                 Avx2 {
@@ -185,6 +231,8 @@ mod avx2 {
                         _mm256_set1_ps(inv.z),
                     ],
                     tmin: _mm256_set1_ps(ray.tmin),
+                    near,
+                    far,
                 }
             }
         }
@@ -195,14 +243,15 @@ mod avx2 {
             // loads read whole 32-byte rows of `n` (unaligned loads, so no
             // alignment requirement either).
             unsafe {
+                let row = |r: usize| _mm256_loadu_ps(n.bounds[r].as_ptr());
                 let mut near = self.tmin;
                 let mut far = _mm256_set1_ps(f32::INFINITY);
                 for a in 0..3 {
-                    let lo = _mm256_loadu_ps(n.min[a].as_ptr());
-                    let hi = _mm256_loadu_ps(n.max[a].as_ptr());
-                    let t0 = _mm256_mul_ps(_mm256_sub_ps(lo, self.origin[a]), self.inv[a]);
-                    let t1 = _mm256_mul_ps(_mm256_sub_ps(hi, self.origin[a]), self.inv[a]);
                     let (tlo, thi) = if NAN_SAFE {
+                        let t0 =
+                            _mm256_mul_ps(_mm256_sub_ps(row(MIN + a), self.origin[a]), self.inv[a]);
+                        let t1 =
+                            _mm256_mul_ps(_mm256_sub_ps(row(MAX + a), self.origin[a]), self.inv[a]);
                         let on_plane = _mm256_or_ps(
                             _mm256_cmp_ps::<_CMP_UNORD_Q>(t0, t0),
                             _mm256_cmp_ps::<_CMP_UNORD_Q>(t1, t1),
@@ -220,7 +269,16 @@ mod avx2 {
                             ),
                         )
                     } else {
-                        (_mm256_min_ps(t0, t1), _mm256_max_ps(t0, t1))
+                        (
+                            _mm256_mul_ps(
+                                _mm256_sub_ps(row(self.near[a]), self.origin[a]),
+                                self.inv[a],
+                            ),
+                            _mm256_mul_ps(
+                                _mm256_sub_ps(row(self.far[a]), self.origin[a]),
+                                self.inv[a],
+                            ),
+                        )
                     };
                     near = _mm256_max_ps(near, tlo);
                     far = _mm256_min_ps(far, thi);
@@ -229,14 +287,17 @@ mod avx2 {
                     _mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE)),
                     _mm256_set1_ps(tmax),
                 );
-                let inside = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, exit)) as u32;
-                let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
-                    _mm256_loadu_si256(n.child.as_ptr().cast()),
-                    _mm256_set1_epi32(EMPTY as i32),
-                ))) as u32;
+                let mut inside = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, exit)) as u32;
+                if NAN_SAFE {
+                    let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                        _mm256_loadu_si256(n.child.as_ptr().cast()),
+                        _mm256_set1_epi32(EMPTY as i32),
+                    ))) as u32;
+                    inside &= !empty;
+                }
                 let mut t = [0.0; WIDTH];
                 _mm256_storeu_ps(t.as_mut_ptr(), near);
-                (t, inside & !empty)
+                (t, inside)
             }
         }
     }
@@ -245,7 +306,6 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     /// Both implementations give the same bits and entry distances on every
     /// kind of ray, hostile ones included (when this CPU has AVX2).
@@ -255,13 +315,13 @@ mod tests {
         for i in 0..7 {
             let f = i as f32;
             for a in 0..3 {
-                node.min[a][i] = -1.0 + 0.3 * f - a as f32 * 0.1;
-                node.max[a][i] = node.min[a][i] + 0.5 + 0.1 * f;
+                node.bounds[MIN + a][i] = -1.0 + 0.3 * f - a as f32 * 0.1;
+                node.bounds[MAX + a][i] = node.bounds[MIN + a][i] + 0.5 + 0.1 * f;
             }
             node.child[i] = i as u32;
         }
         // A flat box, and slot 7 empty.
-        node.max[1][6] = node.min[1][6];
+        node.bounds[MAX + 1][6] = node.bounds[MIN + 1][6];
         let values = [
             0.0,
             -0.0,
@@ -284,18 +344,36 @@ mod tests {
                         0.0,
                         if dz == 0.0 { 2.0 } else { f32::INFINITY },
                     );
-                    let p = Portable::new(&ray);
-                    let (pt, pb) = if needs_nan_care(&ray) {
+                    let inv = ray.inv_dir();
+                    let nan_care = needs_nan_care(&ray, inv);
+                    let p = Portable::new(&ray, inv);
+                    let (pt, pb) = if nan_care {
                         p.hit::<true>(&node, ray.tmax)
                     } else {
                         p.hit::<false>(&node, ray.tmax)
                     };
                     assert_eq!(pb & 0x80, 0, "the empty slot is never entered");
                     entered += pb.count_ones();
+                    // Each slot answers as the scalar slab test of its box.
+                    for (i, &entry) in pt.iter().enumerate().take(7) {
+                        let corner = |r: usize| {
+                            Vec3::new(
+                                node.bounds[r][i],
+                                node.bounds[r + 1][i],
+                                node.bounds[r + 2][i],
+                            )
+                        };
+                        let aabb = crate::Aabb::new(corner(MIN), corner(MAX));
+                        let want = aabb.intersect(&ray, inv);
+                        assert_eq!(pb >> i & 1 == 1, want.is_some(), "{ray:?} slot {i}");
+                        if let Some((enter, _)) = want {
+                            assert_eq!(entry.to_bits(), enter.to_bits(), "{ray:?} slot {i}");
+                        }
+                    }
                     #[cfg(target_arch = "x86_64")]
                     if has_avx2() {
-                        let v = Avx2::new(&ray);
-                        let (vt, vb) = if needs_nan_care(&ray) {
+                        let v = Avx2::new(&ray, inv);
+                        let (vt, vb) = if nan_care {
                             v.hit::<true>(&node, ray.tmax)
                         } else {
                             v.hit::<false>(&node, ray.tmax)

@@ -18,6 +18,7 @@ use glam::Vec3;
 
 use super::{BvhParams, WideBvh};
 use crate::triangle_lanes::{edge_stage, Tri4, LANES};
+use crate::util::prefetch;
 use crate::{
     intersect_triangle_sheared, AccelStats, Accelerator, Counters, Ray, RayShear, TriangleHit,
     TriangleMesh,
@@ -119,8 +120,11 @@ impl TriangleBvh {
                 keep(prim, hit, &mut ray);
             }
         }
-        self.bvh
-            .closest_leaves(ray, counters, |first, count, ray, counters| {
+        self.bvh.closest_leaves(
+            ray,
+            counters,
+            #[inline(always)]
+            |first, count, ray, counters| {
                 let packets = &self.packets[first..first + count.div_ceil(LANES)];
                 for (i, packet) in packets.iter().enumerate() {
                     let lanes = (count - i * LANES).min(LANES);
@@ -137,7 +141,9 @@ impl TriangleBvh {
                         }
                     }
                 }
-            });
+            },
+            |first| prefetch(&self.packets[first]),
+        );
         best
     }
 
@@ -151,8 +157,11 @@ impl TriangleBvh {
                 return true;
             }
         }
-        self.bvh
-            .occluded_leaves(ray, counters, |first, count, ray, counters| {
+        self.bvh.occluded_leaves(
+            ray,
+            counters,
+            #[inline(always)]
+            |first, count, ray, counters| {
                 let packets = &self.packets[first..first + count.div_ceil(LANES)];
                 packets.iter().enumerate().any(|(i, packet)| {
                     let lanes = (count - i * LANES).min(LANES);
@@ -170,7 +179,9 @@ impl TriangleBvh {
                     }
                     false
                 })
-            })
+            },
+            |first| prefetch(&self.packets[first]),
+        )
     }
 
     /// Size and shape; the memory includes the triangle copies.

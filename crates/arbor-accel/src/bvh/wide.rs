@@ -33,10 +33,10 @@
 
 use std::mem::MaybeUninit;
 
-use super::lanes::{needs_nan_care, BoxLanes, Node8, Portable, WIDTH};
+use super::lanes::{needs_nan_care, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 use super::{Bvh, BvhBuilder, BvhParams, STACK_SIZE};
-use crate::util::{offer_any, offer_closest, widen_up};
-use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
+use crate::util::{offer_any, offer_closest, prefetch, widen_up};
+use crate::{AccelStats, Accelerator, Counters, Primitives, Ray, Vec3};
 
 /// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
@@ -109,8 +109,8 @@ impl WideBvh {
             for (lane, &k) in kids.iter().enumerate() {
                 let n = &bn[k];
                 for a in 0..3 {
-                    node.min[a][lane] = n.min[a];
-                    node.max[a][lane] = n.max[a];
+                    node.bounds[MIN + a][lane] = n.min[a];
+                    node.bounds[MAX + a][lane] = n.max[a];
                 }
                 if n.is_leaf() {
                     node.child[lane] = n.offset;
@@ -137,9 +137,14 @@ impl Accelerator for WideBvh {
     {
         let mut ray = *ray;
         offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
-        self.closest_leaves(ray, counters, |first, count, ray, counters| {
-            offer_closest(&self.prims[first..first + count], ray, counters, &mut hit);
-        });
+        self.closest_leaves(
+            ray,
+            counters,
+            |first, count, ray, counters| {
+                offer_closest(&self.prims[first..first + count], ray, counters, &mut hit);
+            },
+            |_| {},
+        );
     }
 
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
@@ -150,9 +155,14 @@ impl Accelerator for WideBvh {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
         }
-        self.occluded_leaves(ray, counters, |first, count, ray, counters| {
-            offer_any(&self.prims[first..first + count], ray, counters, &mut hit)
-        })
+        self.occluded_leaves(
+            ray,
+            counters,
+            |first, count, ray, counters| {
+                offer_any(&self.prims[first..first + count], ray, counters, &mut hit)
+            },
+            |_| {},
+        )
     }
 
     fn stats(&self) -> AccelStats {
@@ -221,10 +231,16 @@ impl WideBvh {
     /// calls `leaf(first, count, ray, counters)` for every leaf the ray
     /// enters, nearest first; `leaf` shrinks `ray.tmax` to the hits it finds.
     #[inline(always)]
-    pub(crate) fn closest_leaves<C, L>(&self, ray: Ray, counters: &mut C, leaf: L)
-    where
+    pub(crate) fn closest_leaves<C, L, P>(
+        &self,
+        ray: Ray,
+        counters: &mut C,
+        leaf: L,
+        prefetch_leaf: P,
+    ) where
         C: Counters,
         L: FnMut(usize, usize, &mut Ray, &mut C),
+        P: Fn(usize),
     {
         if self.nodes.is_empty() {
             return;
@@ -232,13 +248,14 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx2() {
             // SAFETY: the CPU has AVX2.
-            unsafe { self.closest_avx2(ray, counters, leaf) };
+            unsafe { self.closest_avx2(ray, counters, leaf, prefetch_leaf) };
             return;
         }
-        if needs_nan_care(&ray) {
-            self.closest_in::<true, Portable, C, L>(ray, counters, leaf);
+        let inv = ray.inv_dir();
+        if needs_nan_care(&ray, inv) {
+            self.closest_in::<true, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
         } else {
-            self.closest_in::<false, Portable, C, L>(ray, counters, leaf);
+            self.closest_in::<false, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
         }
     }
 
@@ -246,10 +263,17 @@ impl WideBvh {
     /// `leaf(first, count, ray, counters)` for leaves the ray enters until
     /// one returns `true`.
     #[inline(always)]
-    pub(crate) fn occluded_leaves<C, L>(&self, ray: &Ray, counters: &mut C, leaf: L) -> bool
+    pub(crate) fn occluded_leaves<C, L, P>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: L,
+        prefetch_leaf: P,
+    ) -> bool
     where
         C: Counters,
         L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+        P: Fn(usize),
     {
         if self.nodes.is_empty() {
             return false;
@@ -257,12 +281,13 @@ impl WideBvh {
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx2() {
             // SAFETY: the CPU has AVX2.
-            return unsafe { self.occluded_avx2(ray, counters, leaf) };
+            return unsafe { self.occluded_avx2(ray, counters, leaf, prefetch_leaf) };
         }
-        if needs_nan_care(ray) {
-            self.occluded_in::<true, Portable, C, L>(ray, counters, leaf)
+        let inv = ray.inv_dir();
+        if needs_nan_care(ray, inv) {
+            self.occluded_in::<true, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         } else {
-            self.occluded_in::<false, Portable, C, L>(ray, counters, leaf)
+            self.occluded_in::<false, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         }
     }
 
@@ -273,16 +298,18 @@ impl WideBvh {
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn closest_avx2<C, L>(&self, ray: Ray, counters: &mut C, leaf: L)
+    unsafe fn closest_avx2<C, L, P>(&self, ray: Ray, counters: &mut C, leaf: L, prefetch_leaf: P)
     where
         C: Counters,
         L: FnMut(usize, usize, &mut Ray, &mut C),
+        P: Fn(usize),
     {
         use super::lanes::Avx2;
-        if needs_nan_care(&ray) {
-            self.closest_in::<true, Avx2, C, L>(ray, counters, leaf);
+        let inv = ray.inv_dir();
+        if needs_nan_care(&ray, inv) {
+            self.closest_in::<true, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
         } else {
-            self.closest_in::<false, Avx2, C, L>(ray, counters, leaf);
+            self.closest_in::<false, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
         }
     }
 
@@ -292,27 +319,42 @@ impl WideBvh {
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn occluded_avx2<C, L>(&self, ray: &Ray, counters: &mut C, leaf: L) -> bool
+    unsafe fn occluded_avx2<C, L, P>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: L,
+        prefetch_leaf: P,
+    ) -> bool
     where
         C: Counters,
         L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+        P: Fn(usize),
     {
         use super::lanes::Avx2;
-        if needs_nan_care(ray) {
-            self.occluded_in::<true, Avx2, C, L>(ray, counters, leaf)
+        let inv = ray.inv_dir();
+        if needs_nan_care(ray, inv) {
+            self.occluded_in::<true, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         } else {
-            self.occluded_in::<false, Avx2, C, L>(ray, counters, leaf)
+            self.occluded_in::<false, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         }
     }
 
     #[inline(always)]
-    fn closest_in<const NAN_SAFE: bool, B, C, L>(&self, mut ray: Ray, counters: &mut C, mut leaf: L)
-    where
+    fn closest_in<const NAN_SAFE: bool, B, C, L, P>(
+        &self,
+        mut ray: Ray,
+        inv: Vec3,
+        counters: &mut C,
+        mut leaf: L,
+        prefetch_leaf: P,
+    ) where
         B: BoxLanes,
         C: Counters,
         L: FnMut(usize, usize, &mut Ray, &mut C),
+        P: Fn(usize),
     {
-        let lanes = B::new(&ray);
+        let lanes = B::new(&ray, inv);
         // (child, count, entry distance), as in the node's slots.
         let mut stack = Stack::<(u32, u32, f32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
@@ -339,6 +381,11 @@ impl WideBvh {
                     while b != 0 {
                         let lane = b.trailing_zeros() as usize;
                         b &= b - 1;
+                        if n.count[lane] == 0 {
+                            prefetch(&self.nodes[n.child[lane] as usize]);
+                        } else {
+                            prefetch_leaf(n.child[lane] as usize);
+                        }
                         stack.insert_sorted(base, (n.child[lane], n.count[lane], tnear[lane]));
                     }
                 }
@@ -357,18 +404,21 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn occluded_in<const NAN_SAFE: bool, B, C, L>(
+    fn occluded_in<const NAN_SAFE: bool, B, C, L, P>(
         &self,
         ray: &Ray,
+        inv: Vec3,
         counters: &mut C,
         mut leaf: L,
+        prefetch_leaf: P,
     ) -> bool
     where
         B: BoxLanes,
         C: Counters,
         L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+        P: Fn(usize),
     {
-        let lanes = B::new(ray);
+        let lanes = B::new(ray, inv);
         let wide = widen_up(ray.tmax);
         let mut stack = Stack::<(u32, u32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
@@ -385,6 +435,11 @@ impl WideBvh {
                 while bits != 0 {
                     let lane = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
+                    if n.count[lane] == 0 {
+                        prefetch(&self.nodes[n.child[lane] as usize]);
+                    } else {
+                        prefetch_leaf(n.child[lane] as usize);
+                    }
                     stack.push((n.child[lane], n.count[lane]));
                 }
             }
@@ -518,15 +573,22 @@ mod tests {
                     }
                 }
             };
-            let nan = needs_nan_care(ray);
+            let inv = ray.inv_dir();
+            let nan = needs_nan_care(ray, inv);
             if portable {
                 if nan {
-                    bvh.closest_in::<true, Portable, _, _>(*ray, &mut counts, leaf);
+                    bvh.closest_in::<true, Portable, _, _, _>(*ray, inv, &mut counts, leaf, |_| {});
                 } else {
-                    bvh.closest_in::<false, Portable, _, _>(*ray, &mut counts, leaf);
+                    bvh.closest_in::<false, Portable, _, _, _>(
+                        *ray,
+                        inv,
+                        &mut counts,
+                        leaf,
+                        |_| {},
+                    );
                 }
             } else {
-                bvh.closest_leaves(*ray, &mut counts, leaf);
+                bvh.closest_leaves(*ray, &mut counts, leaf, |_| {});
             }
             (offered, counts)
         };
