@@ -104,13 +104,11 @@ pub(crate) fn needs_nan_care(ray: &Ray, inv: Vec3) -> bool {
 /// a ray with inverse direction `inv` (meaningful when `inv` is finite).
 #[inline(always)]
 fn near_far_rows(inv: Vec3) -> ([usize; 3], [usize; 3]) {
-    let mut near = [0; 3];
-    let mut far = [0; 3];
-    for a in 0..3 {
-        let negative = inv[a].is_sign_negative();
-        near[a] = if negative { MAX + a } else { MIN + a };
-        far[a] = if negative { MIN + a } else { MAX + a };
-    }
+    // Sign bit `a` set: the max plane of axis `a` is the near one.
+    let negative = inv.is_negative_bitmask() as usize;
+    let shift = |a: usize| (MAX - MIN) * (negative >> a & 1);
+    let near = [0, 1, 2].map(|a| MIN + a + shift(a));
+    let far = [0, 1, 2].map(|a| MAX + a - shift(a));
     (near, far)
 }
 

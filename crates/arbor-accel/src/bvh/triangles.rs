@@ -105,7 +105,9 @@ impl TriangleBvh {
     /// that keeps the first of equal hits).
     #[inline]
     pub fn closest<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Option<MeshHit> {
-        let shear = RayShear::new(ray);
+        // The shear is computed at the first triangle test: most rays of a
+        // camera framing a model miss it at the root and never need it.
+        let mut shear: Option<RayShear> = None;
         let mut best: Option<MeshHit> = None;
         let mut keep = |prim: u32, hit: TriangleHit, ray: &mut Ray| {
             if best.is_none_or(|b| hit.t < b.hit.t) {
@@ -116,7 +118,8 @@ impl TriangleBvh {
         let mut ray = *ray;
         for &(prim, [a, b, c]) in &self.unbounded {
             counters.test();
-            if let Some(hit) = intersect_triangle_sheared(&ray, &shear, a, b, c) {
+            let shear = shear.get_or_insert_with(|| RayShear::new(&ray));
+            if let Some(hit) = intersect_triangle_sheared(&ray, shear, a, b, c) {
                 keep(prim, hit, &mut ray);
             }
         }
@@ -125,6 +128,7 @@ impl TriangleBvh {
             counters,
             #[inline(always)]
             |first, count, ray, counters| {
+                let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
                 let packets = &self.packets[first..first + count.div_ceil(LANES)];
                 for (i, packet) in packets.iter().enumerate() {
                     let lanes = (count - i * LANES).min(LANES);
@@ -150,10 +154,12 @@ impl TriangleBvh {
     /// Whether any triangle is hit within `[ray.tmin, ray.tmax]`.
     #[inline]
     pub fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        let shear = RayShear::new(ray);
+        // Computed at the first triangle test, as in `closest`.
+        let mut shear: Option<RayShear> = None;
         for &(_, [a, b, c]) in &self.unbounded {
             counters.test();
-            if intersect_triangle_sheared(ray, &shear, a, b, c).is_some() {
+            let shear = shear.get_or_insert_with(|| RayShear::new(ray));
+            if intersect_triangle_sheared(ray, shear, a, b, c).is_some() {
                 return true;
             }
         }
@@ -162,6 +168,7 @@ impl TriangleBvh {
             counters,
             #[inline(always)]
             |first, count, ray, counters| {
+                let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
                 let packets = &self.packets[first..first + count.div_ceil(LANES)];
                 packets.iter().enumerate().any(|(i, packet)| {
                     let lanes = (count - i * LANES).min(LANES);
