@@ -140,13 +140,24 @@ fn jobs(parts: &Path, kind: &str) -> Vec<String> {
         .collect()
 }
 
+/// Whether a Slurm cluster answers; without one, the test is skipped with
+/// a message, or fails when `ARBOR_REQUIRE_SLURM=1` (as in CI).
+fn slurm_or_skip() -> bool {
+    if slurm_answers() {
+        return true;
+    }
+    if std::env::var("ARBOR_REQUIRE_SLURM").as_deref() == Ok("1") {
+        panic!("ARBOR_REQUIRE_SLURM=1 but no Slurm cluster answers (sbatch, sinfo); start one with .ci/slurm.sh start DIR");
+    }
+    eprintln!(
+        "SKIPPED: no Slurm cluster (sbatch and sinfo); set ARBOR_REQUIRE_SLURM=1 to fail instead"
+    );
+    false
+}
+
 #[test]
 fn slurm_tiles_cancel_resume_and_missing_parts() {
-    if !slurm_answers() {
-        if std::env::var("ARBOR_REQUIRE_SLURM").as_deref() == Ok("1") {
-            panic!("ARBOR_REQUIRE_SLURM=1 but no Slurm cluster answers (sbatch, sinfo); start one with .ci/slurm.sh start DIR");
-        }
-        eprintln!("SKIPPED: no Slurm cluster (sbatch and sinfo); set ARBOR_REQUIRE_SLURM=1 to fail instead");
+    if !slurm_or_skip() {
         return;
     }
     let dir = setup();
@@ -390,4 +401,39 @@ fn farm_input_errors() {
         .filter(|p| p.to_string_lossy().contains(".parts"))
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// More render tasks than the cluster's `MaxArraySize` allows array indices
+/// for: a clear error naming the limit, before anything is submitted or
+/// written (sbatch itself only says "Invalid job array specification").
+#[test]
+fn tasks_beyond_max_array_size_are_refused() {
+    if !slurm_or_skip() {
+        return;
+    }
+    let config = tool("scontrol", &["show", "config"]);
+    let max: usize = text(&config)
+        .lines()
+        .find_map(|l| {
+            let (k, v) = l.split_once('=')?;
+            (k.trim() == "MaxArraySize").then(|| v.trim().parse().ok())?
+        })
+        .expect("scontrol show config names MaxArraySize");
+    let dir = tempfile::tempdir().unwrap();
+    // 24 tiles (one per row) per scene, enough scenes to pass the limit.
+    let scenes: Vec<String> = (0..max / 24 + 1).map(|i| format!("s{i}.xml")).collect();
+    for name in &scenes {
+        fs::write(dir.path().join(name), scene("3 4 5")).unwrap();
+    }
+    let mut args = vec!["farm", "slurm"];
+    args.extend(scenes.iter().map(String::as_str));
+    args.extend(["--tiles", "24", "-o", "seq"]);
+    let o = arbor(dir.path(), &args, &[]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("MaxArraySize is {max}")),
+        "{}",
+        text(&o)
+    );
+    assert!(!dir.path().join("seq.parts").exists(), "nothing is written");
 }

@@ -225,6 +225,28 @@ pub fn parse_squeue(text: &str) -> Vec<QueueEntry> {
     out
 }
 
+/// This cluster's `MaxArraySize` (array indices must lie below it; Slurm's
+/// default is 1001), from `scontrol show config`; `None` when `scontrol`
+/// is missing or does not say.
+pub fn max_array_size() -> Option<u32> {
+    let out = std::process::Command::new("scontrol")
+        .args(["show", "config"])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    parse_max_array_size(&String::from_utf8_lossy(&out.stdout))
+}
+
+/// The `MaxArraySize = N` line of `scontrol show config`.
+fn parse_max_array_size(config: &str) -> Option<u32> {
+    config.lines().find_map(|line| {
+        let (key, value) = line.split_once('=')?;
+        (key.trim() == "MaxArraySize").then(|| value.trim().parse().ok())?
+    })
+}
+
 /// Parses a Slurm index list like `0-3,7,9`; `None` if it is not one.
 pub fn parse_index_list(text: &str) -> Option<Vec<u32>> {
     let text = text.trim_start_matches('[').trim_end_matches(']');
@@ -266,6 +288,14 @@ pub fn index_list(indices: &[u32]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn max_array_size_from_the_config() {
+        let config = "Configuration data as of 2026-11-23T16:00:00\nMailProg                = /bin/mail\nMaxArraySize            = 1001\nMaxJobCount             = 10000\n";
+        assert_eq!(parse_max_array_size(config), Some(1001));
+        assert_eq!(parse_max_array_size("MaxJobCount = 5\n"), None);
+        assert_eq!(parse_max_array_size("MaxArraySize = lots\n"), None);
+    }
 
     #[test]
     fn index_lists() {

@@ -14,7 +14,7 @@ use arbor::film::ImageFormat;
 use arbor_accel::AccelKind;
 use clap::Args;
 
-use super::{index_list, parts_dir, recorded_jobs, squeue, Manifest, PartState};
+use super::{index_list, max_array_size, parts_dir, recorded_jobs, squeue, Manifest, PartState};
 use crate::InputError;
 
 /// Arguments of `arbor farm slurm`.
@@ -141,6 +141,18 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         return Ok(());
     }
 
+    // Slurm refuses array indices at or above MaxArraySize with a terse
+    // "Invalid job array specification": say what to change instead.
+    if let (Some(&top), Some(max)) = (todo.iter().max(), max_array_size()) {
+        if top >= max {
+            return Err(InputError(format!(
+                "{}: the render tasks need Slurm array indices up to {top} ({} scene(s) x {n} tiles), but this cluster's MaxArraySize is {max} (indices below {max}); use fewer --tiles or fewer scenes per submission, or ask the administrators to raise MaxArraySize",
+                output.display(),
+                manifest.scenes.len()
+            ))
+            .into());
+        }
+    }
     let render_script = render_script(&manifest, &args, &arbor, &todo);
     let merge_script = merge_script(&manifest, &args, &arbor);
     if args.dry_run {
