@@ -1,82 +1,14 @@
 //! Random geometry (NaN, infinities, degenerate and huge triangles included)
 //! and random rays (zero and denormal direction components included): every
 //! acceleration structure must build without panicking and answer exactly
-//! what brute force answers.
+//! what brute force answers (`../accel_check.rs`).
 #![no_main]
 
-use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
 use libfuzzer_sys::fuzz_target;
 
-/// Reads f32s from the bytes, mapping some byte patterns to the special
-/// values fuzzing should meet often.
-fn floats(data: &[u8]) -> Vec<f32> {
-    data.chunks_exact(4)
-        .map(|c| match c[0] {
-            0xF0 => f32::NAN,
-            0xF1 => f32::INFINITY,
-            0xF2 => -f32::INFINITY,
-            0xF3 => 0.0,
-            0xF4 => f32::MIN_POSITIVE / 8.0,
-            0xF5 => 1e30,
-            _ => (i16::from_le_bytes([c[1], c[2]]) as f32) / 64.0,
-        })
-        .collect()
-}
-
-fn closest<A: Accelerator>(a: &A, mesh: &TriangleMesh, ray: &Ray) -> Option<(f32, u32)> {
-    let mut best: Option<(f32, u32)> = None;
-    a.closest(ray, &mut NoCounters, |prim, r| {
-        let hit = mesh.intersect(prim as usize, r)?;
-        // Ties go to the lower index, whatever order traversal offers them in.
-        if best.is_some_and(|(t, p)| hit.t > t || (hit.t == t && prim > p)) {
-            return None;
-        }
-        best = Some((hit.t, prim));
-        Some(hit.t)
-    });
-    best
-}
+#[path = "../accel_check.rs"]
+mod accel_check;
 
 fuzz_target!(|data: &[u8]| {
-    if data.len() < 8 {
-        return;
-    }
-    let split = (data[0] as usize % 8 + 1) * 4 * 9;
-    let (geo, rays) = data[1..].split_at(split.min(data.len() - 1));
-    let v = floats(geo);
-    let vertices: Vec<Vec3> = v
-        .chunks_exact(3)
-        .map(|c| Vec3::new(c[0], c[1], c[2]))
-        .collect();
-    let triangles: Vec<[u32; 3]> = (0..vertices.len() as u32 / 3)
-        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-        .collect();
-    let mesh = TriangleMesh::new(vertices, triangles);
-    let list = Accel::build(AccelKind::List, &mesh);
-    let built: Vec<Accel> = AccelKind::ALL
-        .iter()
-        .map(|&k| Accel::build(k, &mesh))
-        .collect();
-    for r in floats(rays).chunks_exact(8) {
-        let ray = Ray::new(
-            Vec3::new(r[0], r[1], r[2]),
-            Vec3::new(r[3], r[4], r[5]),
-            r[6].abs().min(1.0),
-            r[7].abs().max(1.0),
-        );
-        if !ray.origin.is_finite() || !ray.dir.is_finite() {
-            continue;
-        }
-        let expected = closest(&list, &mesh, &ray);
-        let occluded = list.occluded(&ray, &mut NoCounters, |p, r| {
-            mesh.intersect(p as usize, r).is_some()
-        });
-        for (a, kind) in built.iter().zip(AccelKind::ALL) {
-            assert_eq!(closest(a, &mesh, &ray), expected, "{kind}");
-            let o = a.occluded(&ray, &mut NoCounters, |p, r| {
-                mesh.intersect(p as usize, r).is_some()
-            });
-            assert_eq!(o, occluded, "{kind}");
-        }
-    }
+    accel_check::check(data);
 });

@@ -5,18 +5,12 @@
 
 use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
 
-fn closest(a: &Accel, mesh: &TriangleMesh, ray: &Ray) -> Option<(f32, u32)> {
-    let mut best: Option<(f32, u32)> = None;
-    a.closest(ray, &mut NoCounters, |prim, r| {
-        let hit = mesh.intersect(prim as usize, r)?;
-        if best.is_some_and(|(t, p)| hit.t > t || (hit.t == t && prim > p)) {
-            return None;
-        }
-        best = Some((hit.t, prim));
-        Some(hit.t)
-    });
-    best
-}
+/// The fuzz target's own check, so that a replay decodes an input exactly
+/// as the fuzzer did.
+#[path = "../../../fuzz/accel_check.rs"]
+mod accel_check;
+
+use accel_check::closest;
 
 /// `fuzz/artifacts/accel/crash-3f3d88450c822a01926e8a9cfa196aebfb76ce94`: a
 /// triangle with a vertex at 1e30 and a ray whose line passes through
@@ -59,67 +53,6 @@ fn huge_vertex_plane_cancellation() {
     }
 }
 
-/// The fuzz target's decoding of its input (`fuzz/fuzz_targets/accel.rs`):
-/// some byte patterns stand for the values fuzzing should meet often.
-fn fuzz_floats(data: &[u8]) -> Vec<f32> {
-    data.chunks_exact(4)
-        .map(|c| match c[0] {
-            0xF0 => f32::NAN,
-            0xF1 => f32::INFINITY,
-            0xF2 => -f32::INFINITY,
-            0xF3 => 0.0,
-            0xF4 => f32::MIN_POSITIVE / 8.0,
-            0xF5 => 1e30,
-            _ => (i16::from_le_bytes([c[1], c[2]]) as f32) / 64.0,
-        })
-        .collect()
-}
-
-/// Replays one fuzz input exactly as the target does; returns the number of
-/// rays checked.
-fn replay(data: &[u8]) -> usize {
-    if data.len() < 8 {
-        return 0;
-    }
-    let split = (data[0] as usize % 8 + 1) * 4 * 9;
-    let (geo, rays) = data[1..].split_at(split.min(data.len() - 1));
-    let v = fuzz_floats(geo);
-    let vertices: Vec<Vec3> = v
-        .chunks_exact(3)
-        .map(|c| Vec3::new(c[0], c[1], c[2]))
-        .collect();
-    let triangles: Vec<[u32; 3]> = (0..vertices.len() as u32 / 3)
-        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-        .collect();
-    let mesh = TriangleMesh::new(vertices, triangles);
-    let list = Accel::build(AccelKind::List, &mesh);
-    let built: Vec<Accel> = AccelKind::ALL
-        .iter()
-        .map(|&k| Accel::build(k, &mesh))
-        .collect();
-    let mut checked = 0;
-    for r in fuzz_floats(rays).chunks_exact(8) {
-        let ray = Ray::new(
-            Vec3::new(r[0], r[1], r[2]),
-            Vec3::new(r[3], r[4], r[5]),
-            r[6].abs().min(1.0),
-            r[7].abs().max(1.0),
-        );
-        if !ray.origin.is_finite() || !ray.dir.is_finite() {
-            continue;
-        }
-        let expected = closest(&list, &mesh, &ray);
-        let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
-        let occluded = list.occluded(&ray, &mut NoCounters, test);
-        for (a, kind) in built.iter().zip(AccelKind::ALL) {
-            assert_eq!(closest(a, &mesh, &ray), expected, "{kind} {ray:?}");
-            assert_eq!(a.occluded(&ray, &mut NoCounters, test), occluded, "{kind}");
-        }
-        checked += 1;
-    }
-    checked
-}
-
 /// Every input kept in `fuzz/artifacts/accel/` answers like brute force.
 /// Two of them have rays whose direction components are subnormal
 /// (`MIN_POSITIVE / 8`): their reciprocals overflowed to infinity, which put
@@ -137,7 +70,7 @@ fn every_kept_fuzz_input_answers_like_brute_force() {
     assert!(files.len() >= 3, "kept inputs: {files:?}");
     let rays: usize = files
         .iter()
-        .map(|f| replay(&std::fs::read(f).expect("read a kept input")))
+        .map(|f| accel_check::check(&std::fs::read(f).expect("read a kept input")))
         .sum();
     assert!(rays > 0);
 }
