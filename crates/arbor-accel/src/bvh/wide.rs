@@ -251,12 +251,7 @@ impl WideBvh {
             unsafe { self.closest_avx2(ray, counters, leaf, prefetch_leaf) };
             return;
         }
-        let inv = ray.inv_dir();
-        if needs_nan_care(&ray, inv) {
-            self.closest_in::<true, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
-        } else {
-            self.closest_in::<false, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
-        }
+        self.closest_in::<Portable, C, L, P>(ray, counters, leaf, prefetch_leaf);
     }
 
     /// Any-hit traversal (the unbounded primitives are the caller's): calls
@@ -283,12 +278,7 @@ impl WideBvh {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.occluded_avx2(ray, counters, leaf, prefetch_leaf) };
         }
-        let inv = ray.inv_dir();
-        if needs_nan_care(ray, inv) {
-            self.occluded_in::<true, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
-        } else {
-            self.occluded_in::<false, Portable, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
-        }
+        self.occluded_in::<Portable, C, L, P>(ray, counters, leaf, prefetch_leaf)
     }
 
     /// [`WideBvh::closest_leaves`] compiled for AVX2: the whole traversal,
@@ -305,12 +295,7 @@ impl WideBvh {
         P: Fn(usize),
     {
         use super::lanes::Avx2;
-        let inv = ray.inv_dir();
-        if needs_nan_care(&ray, inv) {
-            self.closest_in::<true, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
-        } else {
-            self.closest_in::<false, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
-        }
+        self.closest_in::<Avx2, C, L, P>(ray, counters, leaf, prefetch_leaf);
     }
 
     /// [`WideBvh::occluded_leaves`] compiled for AVX2.
@@ -332,16 +317,53 @@ impl WideBvh {
         P: Fn(usize),
     {
         use super::lanes::Avx2;
+        self.occluded_in::<Avx2, C, L, P>(ray, counters, leaf, prefetch_leaf)
+    }
+
+    /// The closest-hit traversal with the box lanes `B`, on the fast path
+    /// when the ray allows it (see [`BoxLanes::hit`]).
+    #[inline(always)]
+    fn closest_in<B, C, L, P>(&self, ray: Ray, counters: &mut C, leaf: L, prefetch_leaf: P)
+    where
+        B: BoxLanes,
+        C: Counters,
+        L: FnMut(usize, usize, &mut Ray, &mut C),
+        P: Fn(usize),
+    {
+        let inv = ray.inv_dir();
+        if needs_nan_care(&ray, inv) {
+            self.closest_with::<true, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
+        } else {
+            self.closest_with::<false, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
+        }
+    }
+
+    /// The any-hit traversal with the box lanes `B`, on the fast path when
+    /// the ray allows it.
+    #[inline(always)]
+    fn occluded_in<B, C, L, P>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: L,
+        prefetch_leaf: P,
+    ) -> bool
+    where
+        B: BoxLanes,
+        C: Counters,
+        L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+        P: Fn(usize),
+    {
         let inv = ray.inv_dir();
         if needs_nan_care(ray, inv) {
-            self.occluded_in::<true, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
+            self.occluded_with::<true, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         } else {
-            self.occluded_in::<false, Avx2, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
+            self.occluded_with::<false, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         }
     }
 
     #[inline(always)]
-    fn closest_in<const NAN_SAFE: bool, B, C, L, P>(
+    fn closest_with<const NAN_SAFE: bool, B, C, L, P>(
         &self,
         mut ray: Ray,
         inv: Vec3,
@@ -404,7 +426,7 @@ impl WideBvh {
     }
 
     #[inline(always)]
-    fn occluded_in<const NAN_SAFE: bool, B, C, L, P>(
+    fn occluded_with<const NAN_SAFE: bool, B, C, L, P>(
         &self,
         ray: &Ray,
         inv: Vec3,
@@ -573,20 +595,8 @@ mod tests {
                     }
                 }
             };
-            let inv = ray.inv_dir();
-            let nan = needs_nan_care(ray, inv);
             if portable {
-                if nan {
-                    bvh.closest_in::<true, Portable, _, _, _>(*ray, inv, &mut counts, leaf, |_| {});
-                } else {
-                    bvh.closest_in::<false, Portable, _, _, _>(
-                        *ray,
-                        inv,
-                        &mut counts,
-                        leaf,
-                        |_| {},
-                    );
-                }
+                bvh.closest_in::<Portable, _, _, _>(*ray, &mut counts, leaf, |_| {});
             } else {
                 bvh.closest_leaves(*ray, &mut counts, leaf, |_| {});
             }
