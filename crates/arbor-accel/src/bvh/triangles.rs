@@ -129,22 +129,10 @@ impl TriangleBvh {
             #[inline(always)]
             |first, count, ray, counters| {
                 let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
-                let packets = &self.packets[first..first + count.div_ceil(LANES)];
-                for (i, packet) in packets.iter().enumerate() {
-                    let lanes = (count - i * LANES).min(LANES);
-                    for _ in 0..lanes {
-                        counters.test();
-                    }
-                    let verdict = edge_stage(ray, &shear, packet, lanes);
-                    let mut todo = verdict.candidates(lanes);
-                    while todo != 0 {
-                        let k = todo.trailing_zeros() as usize;
-                        todo &= todo - 1;
-                        if let Some(hit) = verdict.finish(k, ray, &shear, packet) {
-                            keep(packet.ids[k], hit, ray);
-                        }
-                    }
-                }
+                self.test_leaf(first, count, ray, &shear, counters, |prim, hit, ray| {
+                    keep(prim, hit, ray);
+                    false
+                });
             },
             |first| prefetch(&self.packets[first]),
         );
@@ -169,26 +157,46 @@ impl TriangleBvh {
             #[inline(always)]
             |first, count, ray, counters| {
                 let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
-                let packets = &self.packets[first..first + count.div_ceil(LANES)];
-                packets.iter().enumerate().any(|(i, packet)| {
-                    let lanes = (count - i * LANES).min(LANES);
-                    for _ in 0..lanes {
-                        counters.test();
-                    }
-                    let verdict = edge_stage(ray, &shear, packet, lanes);
-                    let mut todo = verdict.candidates(lanes);
-                    while todo != 0 {
-                        let k = todo.trailing_zeros() as usize;
-                        todo &= todo - 1;
-                        if verdict.finish(k, ray, &shear, packet).is_some() {
-                            return true;
-                        }
-                    }
-                    false
-                })
+                let mut ray = *ray;
+                self.test_leaf(first, count, &mut ray, &shear, counters, |_, _, _| true)
             },
             |first| prefetch(&self.packets[first]),
         )
+    }
+
+    /// Runs the leaf `(first, count)`'s triangles through the watertight
+    /// test, four at a time, in leaf order, and calls `on_hit(id, hit, ray)`
+    /// for each one hit (it may shrink `ray.tmax` for the ones after it).
+    /// Stops and returns `true` as soon as `on_hit` does.
+    #[inline(always)]
+    fn test_leaf<C: Counters>(
+        &self,
+        first: usize,
+        count: usize,
+        ray: &mut Ray,
+        shear: &RayShear,
+        counters: &mut C,
+        mut on_hit: impl FnMut(u32, TriangleHit, &mut Ray) -> bool,
+    ) -> bool {
+        let packets = &self.packets[first..first + count.div_ceil(LANES)];
+        for (i, packet) in packets.iter().enumerate() {
+            let lanes = (count - i * LANES).min(LANES);
+            for _ in 0..lanes {
+                counters.test();
+            }
+            let verdict = edge_stage(ray, shear, packet, lanes);
+            let mut todo = verdict.candidates(lanes);
+            while todo != 0 {
+                let k = todo.trailing_zeros() as usize;
+                todo &= todo - 1;
+                if let Some(hit) = verdict.finish(k, ray, shear, packet) {
+                    if on_hit(packet.ids[k], hit, ray) {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// Size and shape; the memory includes the triangle copies.
