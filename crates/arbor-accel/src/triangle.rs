@@ -5,6 +5,7 @@
 
 use glam::{DVec3, Vec3};
 
+use crate::util::widen_up;
 use crate::{Aabb, Primitives, Ray};
 
 /// Where a ray hits a triangle.
@@ -76,7 +77,9 @@ impl RayShear {
 /// triangle (to about `2^-48 s`), not merely near it; the distance `t` comes
 /// from the triangle's plane in `f64`, or, when that point falls outside the
 /// triangle's box (cancellation next to a huge vertex), from the barycentric
-/// combination of the vertices' distances. Both matter to acceleration
+/// combination of the vertices' distances. A hit also has to pass the
+/// conservative slab test ([`Aabb::intersect`]) against the triangle's own
+/// box, which no true hit fails. All of this matters to acceleration
 /// structures, which can only promise to offer a primitive where it really
 /// is. Degenerate (zero-area) triangles and zero directions never hit.
 #[inline]
@@ -209,6 +212,24 @@ fn hit_from_weights(
     if !(t >= ray.tmin && t <= ray.tmax) {
         return None;
     }
+    // The distance is accurate to a tiny fraction of the vertices' scale,
+    // not of `t` itself: a ray starting within that distance of the plane
+    // (a subnormal offset from an edge, say) can get `t = 0` for a plane it
+    // meets just behind its origin, at a point outside the triangle's box.
+    // Every structure offers a triangle only where the conservative slab
+    // test (the one its nodes use) finds the triangle's box on the ray, so a
+    // hit is kept only where that test passes for the triangle's own box:
+    // the test never rejects a true hit, and a box that contains the
+    // triangle's passes whenever this one does. As in the structures'
+    // culling, `tmax` is widened by the slab rounding bound: the box of a
+    // triangle hit exactly at the current closest hit (a shared vertex, a
+    // tie) may be entered a rounding later, and must still pass, whichever
+    // of the two a traversal meets first.
+    let widened = Ray {
+        tmax: widen_up(ray.tmax),
+        ..*ray
+    };
+    Aabb::from_points([p0, p1, p2]).intersect(&widened, ray.inv_dir())?;
     Some(TriangleHit {
         t,
         u: v as f32,

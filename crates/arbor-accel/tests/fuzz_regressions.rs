@@ -53,6 +53,45 @@ fn huge_vertex_plane_cancellation() {
     }
 }
 
+/// `fuzz/artifacts/accel/crash-038c98fce6cb2e9049cf04d898cba4f203c94bfe`: a
+/// ray starting a subnormal distance `d` off a triangle's edge, on the side
+/// away from the triangle, and moving further away. Its line meets the
+/// plane about `160 d` behind the origin, but the distance, accurate only
+/// to a tiny fraction of the vertices' scale, came out as `t = 0`: brute
+/// force reported a hit at the origin, outside the triangle's box, where no
+/// structure offers the triangle. A hit now stands only where the
+/// structures' own slab test finds the triangle's box.
+#[test]
+fn subnormal_offset_from_an_edge() {
+    let d = f32::MIN_POSITIVE / 8.0;
+    let mesh = TriangleMesh::new(
+        vec![
+            Vec3::new(3.828125, -236.0, -236.0),
+            Vec3::new(0.0, 0.0, -341.34375),
+            Vec3::new(0.0, 0.0, 0.0),
+        ],
+        vec![[0, 1, 2]],
+    );
+    let ray = Ray::new(
+        Vec3::new(d, d, -1.0),
+        Vec3::new(0.0, 0.390625, 0.609375),
+        0.0,
+        1.0,
+    );
+    assert_eq!(mesh.intersect(0, &ray), None);
+    // Started further back, the ray does meet the triangle.
+    let back = Ray::new(ray.at(-1.0), ray.dir, 0.0, 2.0);
+    let hit = mesh.intersect(0, &back).expect("hit from behind");
+    assert!((hit.t - 1.0).abs() < 1e-6, "{hit:?}");
+    for r in [ray, back] {
+        let expected = closest(&Accel::build(AccelKind::List, &mesh), &mesh, &r);
+        for &kind in AccelKind::ALL {
+            let a = Accel::build(kind, &mesh);
+            assert_eq!(closest(&a, &mesh, &r), expected, "{kind}");
+        }
+    }
+}
+
 /// Every input kept in `fuzz/artifacts/accel/` answers like brute force.
 /// Two of them have rays whose direction components are subnormal
 /// (`MIN_POSITIVE / 8`): their reciprocals overflowed to infinity, which put
