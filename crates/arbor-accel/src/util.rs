@@ -116,16 +116,26 @@ pub(crate) fn prepare<P: Primitives + ?Sized>(prims: &P) -> Prepared {
 }
 
 /// Primitive ids already handed to the caller during one query, so that a
-/// primitive stored in several cells is tested at most once per ray.
+/// primitive stored in several cells or leaves (grid, k-d tree) is tested at
+/// most once per ray.
 ///
-/// Per call and on the stack, so concurrent queries share nothing: the first
-/// [`Mailbox::INLINE`] ids are kept in an array searched linearly (almost all
-/// rays stop there), later ones spill into a hash set.
+/// Per call and on the stack, so concurrent queries share nothing and "at
+/// most once" is exact. The first [`Mailbox::INLINE`] ids sit in a fixed
+/// array that is compared whole, with no data-dependent branch (the
+/// compiler turns it into a few vector compares); unused slots hold
+/// `u32::MAX`, never an id (structures index fewer primitives). Later ids
+/// spill into a hash set, allocated only then (almost all rays stop
+/// before). The set's hasher has fixed keys: the ids are indices, not
+/// chosen by anyone, and a fixed hasher makes a query take the same path
+/// every run (fuzzing steers by that path).
 pub(crate) struct Mailbox {
-    inline: [u32; Mailbox::INLINE],
+    ids: [u32; Mailbox::INLINE],
     len: usize,
-    spill: Option<std::collections::HashSet<u32>>,
+    spill: Option<std::collections::HashSet<u32, FixedHasher>>,
 }
+
+/// std's hasher with fixed keys.
+type FixedHasher = std::hash::BuildHasherDefault<std::collections::hash_map::DefaultHasher>;
 
 impl Mailbox {
     /// Ids kept without allocating.
@@ -134,20 +144,20 @@ impl Mailbox {
     #[inline(always)]
     pub fn new() -> Self {
         Mailbox {
-            inline: [u32::MAX; Mailbox::INLINE],
+            ids: [u32::MAX; Mailbox::INLINE],
             len: 0,
             spill: None,
         }
     }
 
     /// Records `id`; returns whether it was new.
-    #[inline]
+    #[inline(always)]
     pub fn insert(&mut self, id: u32) -> bool {
-        if self.inline[..self.len].contains(&id) {
+        if self.ids.iter().fold(false, |seen, &x| seen | (x == id)) {
             return false;
         }
         if self.len < Mailbox::INLINE {
-            self.inline[self.len] = id;
+            self.ids[self.len] = id;
             self.len += 1;
             return true;
         }

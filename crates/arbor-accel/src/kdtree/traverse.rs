@@ -3,50 +3,8 @@
 use std::mem::MaybeUninit;
 
 use super::{KdNode, KdTree, STACK_SIZE};
-use crate::util::{offer_any, widen_down, widen_up};
+use crate::util::{offer_any, widen_down, widen_up, Mailbox};
 use crate::{AccelStats, Accelerator, Counters, Ray};
-
-/// Primitives already offered during one query (a primitive lives in every
-/// leaf it overlaps, and is tested once).
-///
-/// The first [`Seen::INLINE`] ids sit in a fixed array that is compared
-/// whole, with no data-dependent branch (the compiler turns it into a few
-/// vector compares); unused slots hold `u32::MAX`, never an id (ids fit in
-/// 30 bits). Later ids spill into a hash set, allocated only then. Per query
-/// and on the stack, so concurrent queries share nothing and "at most once"
-/// is exact.
-struct Seen {
-    ids: [u32; Seen::INLINE],
-    len: usize,
-    spill: Option<std::collections::HashSet<u32>>,
-}
-
-impl Seen {
-    const INLINE: usize = 32;
-
-    #[inline(always)]
-    fn new() -> Self {
-        Seen {
-            ids: [u32::MAX; Seen::INLINE],
-            len: 0,
-            spill: None,
-        }
-    }
-
-    /// Records `id`; returns whether it was new.
-    #[inline(always)]
-    fn insert(&mut self, id: u32) -> bool {
-        if self.ids.iter().fold(false, |seen, &x| seen | (x == id)) {
-            return false;
-        }
-        if self.len < Seen::INLINE {
-            self.ids[self.len] = id;
-            self.len += 1;
-            return true;
-        }
-        self.spill.get_or_insert_with(Default::default).insert(id)
-    }
-}
 
 /// The smaller of `a` and `b`, or `a` when `b` is NaN: one `minss`
 /// (`f32::min` also handles a NaN `a`, which never occurs here, at the cost
@@ -197,7 +155,7 @@ impl Accelerator for KdTree {
         // A hit found in one leaf may lie beyond it, in a later leaf: that is
         // fine, the walk only skips nodes that begin beyond `tmax`, so it
         // stops exactly when no unvisited region can hold a closer hit.
-        let mut mailbox = Seen::new();
+        let mut mailbox = Mailbox::new();
         self.walk(&mut ray, counters, |prims, ray, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
@@ -220,7 +178,7 @@ impl Accelerator for KdTree {
             return true;
         }
         let mut found = false;
-        let mut mailbox = Seen::new();
+        let mut mailbox = Mailbox::new();
         let mut walk_ray = *ray;
         self.walk(&mut walk_ray, counters, |prims, r, counters| {
             for &p in prims {
