@@ -6,9 +6,12 @@
 
 use libfuzzer_sys::fuzz_target;
 
+#[path = "../one_thread.rs"]
+mod one_thread;
+
 #[path = "../accel_check.rs"]
 mod accel_check;
 
-fuzz_target!(|data: &[u8]| {
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     accel_check::check(data);
 });

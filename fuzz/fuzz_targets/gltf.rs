@@ -12,6 +12,9 @@ use arbor::surface::Surface;
 use glam::DMat4;
 use libfuzzer_sys::fuzz_target;
 
+#[path = "../one_thread.rs"]
+mod one_thread;
+
 /// Checks every node matrix below `s` (each group's own, not the product,
 /// which may overflow legitimately).
 fn check_groups(s: &Surface) {
@@ -25,7 +28,7 @@ fn check_groups(s: &Surface) {
     }
 }
 
-fuzz_target!(|data: &[u8]| {
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     // No base folder: external buffers are refused, never read from disk.
     let Ok(model) = arbor::model::gltf::parse(data, Path::new("fuzz.gltf"), None) else {
         return;

@@ -6,7 +6,10 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
+#[path = "../one_thread.rs"]
+mod one_thread;
+
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     let text = String::from_utf8_lossy(data);
     if let Ok(mesh) = arbor::mesh::msh::parse_msh(&text, Path::new("fuzz.msh")) {
         let n = mesh.positions.len() as u32;

@@ -7,7 +7,10 @@ use std::path::Path;
 use arbor::mesh::obj::{parse_obj, ObjRule};
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
+#[path = "../one_thread.rs"]
+mod one_thread;
+
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     let text = String::from_utf8_lossy(data);
     for rule in [ObjRule::Cornell2015, ObjRule::Fan] {
         if let Ok(obj) = parse_obj(&text, Path::new("fuzz.obj"), rule) {

@@ -7,7 +7,10 @@ use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
+#[path = "../one_thread.rs"]
+mod one_thread;
+
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     if let Ok(mesh) = arbor::model::ply::parse(data, Path::new("fuzz.ply")) {
         let n = mesh.positions.len();
         assert!(!mesh.triangles.is_empty(), "a mesh without triangles");

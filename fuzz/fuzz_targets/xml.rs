@@ -8,7 +8,10 @@ use std::sync::atomic::AtomicBool;
 
 use libfuzzer_sys::fuzz_target;
 
-fuzz_target!(|data: &[u8]| {
+#[path = "../one_thread.rs"]
+mod one_thread;
+
+fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return;
     };

@@ -18,7 +18,7 @@
 //!   [`Flattened`]). Memory follows the unique geometry plus one small
 //!   record per placement.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::sync::Arc;
 
 use arbor_accel::{Aabb, Vec3};
@@ -647,7 +647,7 @@ impl Flattened {
         }
         let mut builder = Builder {
             uses,
-            shared_index: HashMap::new(),
+            shared_index: HashMap::default(),
             out: Flattened {
                 world: FlatScene::empty(scene.variant),
                 shared: Vec::new(),
@@ -722,7 +722,7 @@ fn placement_counts(roots: &[Surface]) -> HashMap<usize, (u64, Arc<Surface>)> {
     }
     let mut top = Vec::new();
     roots.iter().for_each(|r| direct_instances(r, &mut top));
-    let mut seen = HashMap::new();
+    let mut seen = HashMap::default();
     let mut order = Vec::new();
     for s in &top {
         visit(s, &mut seen, &mut order);

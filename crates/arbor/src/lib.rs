@@ -11,6 +11,7 @@ pub mod compare;
 pub mod default_scene;
 pub mod film;
 pub mod flatten;
+mod hash_map;
 pub mod heatmap;
 pub mod light;
 pub mod mesh;

@@ -25,7 +25,7 @@
 //! | 80 | 24 per pixel | linear radiance `R, G, B` as `f64`, row by row |
 //! | end − 32 | 32 | SHA-256 of every byte before it (detects a damaged file) |
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::fmt::{self, Write as _};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -345,7 +345,7 @@ impl Assembly {
         };
         // The majority defines what the picture is; on a tie, the first part.
         let key = |h: &PartHeader| (h.scene_hash, h.width, h.height, h.variant as u8);
-        let mut counts: HashMap<_, usize> = HashMap::new();
+        let mut counts: HashMap<_, usize> = HashMap::default();
         for (_, h) in parts {
             *counts.entry(key(h)).or_default() += 1;
         }
@@ -440,7 +440,7 @@ fn missing_message(parts: &[(PathBuf, PartHeader)], reference: &PartHeader, pixe
         .collect();
     if counts.len() == parts.len() && counts.iter().all(|&n| n == counts[0]) {
         let n = counts[0];
-        let have: std::collections::HashSet<u32> = parts
+        let have: crate::hash_map::HashSet<u32> = parts
             .iter()
             .filter_map(|(_, h)| h.tile.map(|t| t.0))
             .collect();
@@ -512,7 +512,7 @@ pub fn scene_hash(scene: &Scene) -> [u8; 32] {
         ..scene.clone()
     };
     let _ = writeln!(w, "{rest:?}");
-    let mut shared = HashMap::new();
+    let mut shared = HashMap::default();
     for s in &scene.surfaces {
         hash_surface(s, &mut w, &mut shared);
     }

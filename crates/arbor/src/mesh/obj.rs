@@ -9,7 +9,7 @@
 //! In both rules a `#` starts a comment that runs to the end of the line, and
 //! CRLF line endings are tolerated.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
@@ -134,7 +134,7 @@ impl<'p> Reader<'p> {
             any_vt: false,
             any_vn: false,
             keys: Vec::new(),
-            key_index: HashMap::new(),
+            key_index: HashMap::default(),
             triangles: Vec::new(),
             skipped: 0,
             pending: Vec::new(),

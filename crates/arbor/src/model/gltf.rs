@@ -17,7 +17,7 @@
 //! indices against vertex counts, and the number of placements a deep
 //! hierarchy multiplies out to.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -84,9 +84,9 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
         path,
         doc: &gltf.document,
         buffers: buffers.iter().map(|b| b.0.as_slice()).collect(),
-        meshes: HashMap::new(),
-        mesh_triangles: HashMap::new(),
-        mesh_uses: HashMap::new(),
+        meshes: HashMap::default(),
+        mesh_triangles: HashMap::default(),
+        mesh_uses: HashMap::default(),
         warnings: Vec::new(),
         stats: ModelStats {
             nodes: gltf.document.nodes().len() as u64,
@@ -199,7 +199,7 @@ impl Importer<'_> {
         };
         self.check_cycles(&roots)?;
         // Placements multiply down a DAG: count them before building.
-        let mut memo = HashMap::new();
+        let mut memo = HashMap::default();
         let placements = roots.iter().fold(0u64, |a, &r| {
             a.saturating_add(self.count_placements(r, &mut memo))
         });

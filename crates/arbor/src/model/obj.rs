@@ -26,7 +26,7 @@
 //! does not define, get [`super::default_shader`]; a missing or unreadable
 //! library is a warning, not an error.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::io::Cursor;
 use std::path::Path;
 use std::sync::Arc;
@@ -73,7 +73,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
             Vec::new()
         }
     };
-    let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::new();
+    let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::default();
     let default = default_shader();
     let mut surfaces = Vec::new();
     let mut stats = ModelStats::default();

@@ -8,7 +8,7 @@
 //! zero); the winding gives the flat normal. Identical corners are merged
 //! so the mesh is indexed.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::path::Path;
 
 use glam::Vec3;

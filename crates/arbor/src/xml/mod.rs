@@ -7,7 +7,7 @@
 //! error names the file, line and column of the offending element and what
 //! was expected there.
 
-use std::collections::HashMap;
+use crate::hash_map::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -121,11 +121,11 @@ pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene> {
         path,
         dir: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         variant,
-        names: HashMap::new(),
+        names: HashMap::default(),
         warnings: Vec::new(),
-        meshes: HashMap::new(),
+        meshes: HashMap::default(),
         depth: 0,
-        pending: HashMap::new(),
+        pending: HashMap::default(),
         resolving: Vec::new(),
     };
     let scene = loader.scene(root)?;
