@@ -88,6 +88,8 @@ pub struct FlatMesh {
     pub uvs: Option<Vec<DVec2>>,
     /// Triangles.
     pub triangles: Vec<[u32; 3]>,
+    /// Back faces shaded like front faces ([`crate::surface::MeshSurface::two_sided`]).
+    pub two_sided: bool,
     transform: u32,
     shader: u32,
 }
@@ -251,6 +253,7 @@ impl FlatScene {
                             normals: None,
                             uvs: None,
                             triangles: tris.to_vec(),
+                            two_sided: false,
                             transform,
                             shader,
                         });
@@ -302,6 +305,7 @@ impl FlatScene {
                             normals,
                             uvs,
                             triangles: data.triangles.clone(),
+                            two_sided: mesh.two_sided,
                             transform: NO_TRANSFORM,
                             shader,
                         }
@@ -314,6 +318,7 @@ impl FlatScene {
                             .map(|ns| ns.iter().map(widen).collect()),
                         uvs,
                         triangles: data.triangles.clone(),
+                        two_sided: mesh.two_sided,
                         transform: self.transform_index(m)?,
                         shader,
                     },
@@ -474,9 +479,23 @@ impl FlatScene {
                 if let Some(uvs) = &m.uvs {
                     uv = Some(a * uvs[i0] + b * uvs[i1] + g * uvs[i2]);
                 }
-                match &m.normals {
-                    Some(ns) => to_world(a * ns[i0] + b * ns[i1] + g * ns[i2]),
-                    None => to_world((p1 - p0).cross(p2 - p0)),
+                let geometric = (p1 - p0).cross(p2 - p0);
+                let n = match &m.normals {
+                    Some(ns) => a * ns[i0] + b * ns[i1] + g * ns[i2],
+                    None => geometric,
+                };
+                let glass = matches!(*self.shaders[prim.shader as usize], Shader::Glass { .. });
+                // Two-sided: the normal turned to the ray's side of the
+                // triangle when it points to the far side. The side is
+                // decided by the geometric normal (in the space of `od`;
+                // the inverse transpose keeps the sign of `n . d`), not by
+                // the interpolated normal, which can face away from the
+                // viewer near silhouettes of the front side too.
+                let far_side = geometric.dot(od) * geometric.dot(n) > 0.0;
+                if m.two_sided && !glass && far_side {
+                    to_world(-n)
+                } else {
+                    to_world(n)
                 }
             }
         };

@@ -224,6 +224,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
     scene.surfaces.push(Surface::Mesh(MeshSurface {
         data: std::sync::Arc::new(data),
         shader: std::sync::Arc::new(arbor::shader::Shader::default_lambertian()),
+        two_sided: false,
     }));
     let flat = FlatScene::new(&scene).unwrap();
     assert_eq!((flat.len(), flat.dropped()), (2, 1));
@@ -238,6 +239,87 @@ fn non_finite_vertices_are_dropped_not_traced() {
     assert!(tracer
         .closest(DVec3::new(2.0, 2.0, 1.0), DVec3::NEG_Z, 0.0, f64::INFINITY)
         .is_none());
+}
+
+/// Imported models are shaded from both sides: a ray meeting a triangle
+/// from behind gets the normal turned towards it, unless the surface is
+/// one-sided (the course's scenes) or glass (refraction needs the outward
+/// normal). The side comes from the winding, so vertex normals that
+/// disagree with it are left alone when they already face the ray.
+#[test]
+fn two_sided_meshes_turn_the_normal_to_the_ray() {
+    use arbor::mesh::MeshData;
+    use arbor::shader::Shader;
+    use arbor::surface::{MeshSurface, Surface};
+    use glam::Vec3;
+    use std::sync::Arc;
+    // Counter-clockwise seen from +z: the winding's normal is +z.
+    let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    let normal_of = |two_sided: bool, shader: Shader, normals: Option<Vec3>, from_z: f64| {
+        let mut scene = load("<scene><camera/><image>2 2</image></scene>");
+        scene.surfaces.push(Surface::Mesh(MeshSurface {
+            data: Arc::new(MeshData {
+                positions: positions.clone(),
+                normals: normals.map(|n| vec![n; 3]),
+                uvs: None,
+                triangles: vec![[0, 1, 2]],
+            }),
+            shader: Arc::new(shader),
+            two_sided,
+        }));
+        let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::DEFAULT);
+        let o = DVec3::new(0.25, 0.25, from_z);
+        let d = DVec3::new(0.0, 0.0, -from_z.signum());
+        tracer.closest(o, d, 0.0, f64::INFINITY).unwrap().normal
+    };
+    let lambert = Shader::default_lambertian;
+    let glass = || Shader::Glass {
+        refractive_index: 1.5,
+    };
+    // From the front: the winding's normal for everyone.
+    assert_eq!(normal_of(true, lambert(), None, 1.0), DVec3::Z);
+    assert_eq!(normal_of(false, lambert(), None, 1.0), DVec3::Z);
+    // From behind: turned only when two-sided and not glass.
+    assert_eq!(normal_of(true, lambert(), None, -1.0), DVec3::NEG_Z);
+    assert_eq!(normal_of(false, lambert(), None, -1.0), DVec3::Z);
+    assert_eq!(normal_of(true, glass(), None, -1.0), DVec3::Z);
+    // Vertex normals: turned when on the far side of the triangle, kept
+    // when they already face the ray.
+    assert_eq!(
+        normal_of(true, lambert(), Some(Vec3::Z), -1.0),
+        DVec3::NEG_Z
+    );
+    assert_eq!(
+        normal_of(true, lambert(), Some(Vec3::NEG_Z), -1.0),
+        DVec3::NEG_Z
+    );
+    assert_eq!(normal_of(true, lambert(), Some(Vec3::NEG_Z), 1.0), DVec3::Z);
+}
+
+/// Every model importer marks its meshes two-sided.
+#[test]
+fn imported_models_are_two_sided() {
+    use arbor::surface::Surface;
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("quad.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    let stl = dir.path().join("tri.stl");
+    std::fs::write(
+        &stl,
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\
+         vertex 0 1 0\nendloop\nendfacet\nendsolid t\n",
+    )
+    .unwrap();
+    for path in [obj, stl] {
+        let model = arbor::model::load_model(&path).unwrap();
+        assert!(!model.surfaces.is_empty());
+        for s in &model.surfaces {
+            match s {
+                Surface::Mesh(m) => assert!(m.two_sided, "{}", path.display()),
+                other => panic!("expected a mesh, got {other:?}"),
+            }
+        }
+    }
 }
 
 #[test]

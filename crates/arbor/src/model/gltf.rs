@@ -379,6 +379,7 @@ impl Importer<'_> {
             parts.push(Surface::Mesh(MeshSurface {
                 data: Arc::new(data),
                 shader: shader_for(&prim.material()),
+                two_sided: true,
             }));
         }
         if parts.is_empty() {

@@ -132,6 +132,7 @@ fn single_mesh(mesh: MeshData) -> Model {
         surfaces: vec![Surface::Mesh(MeshSurface {
             data: Arc::new(mesh),
             shader: default_shader(),
+            two_sided: true,
         })],
         stats: ModelStats {
             nodes: 0,

@@ -144,6 +144,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         surfaces.push(Surface::Mesh(MeshSurface {
             data: Arc::new(data),
             shader,
+            two_sided: true,
         }));
     }
     if undefined_material {

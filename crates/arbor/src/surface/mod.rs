@@ -51,6 +51,13 @@ pub struct MeshSurface {
     pub data: Arc<MeshData>,
     /// The shader of every triangle.
     pub shader: Arc<Shader>,
+    /// Whether back faces are shaded like front faces (except by glass,
+    /// whose refraction needs to know inside from outside). Imported models
+    /// are two-sided: their open surfaces (a sheet, a leaf, a wall of one
+    /// layer) are meant to be seen from both sides, and a one-sided shader
+    /// turns the far side black. The course's scenes are one-sided, as its
+    /// reference renderer is.
+    pub two_sided: bool,
 }
 
 impl Surface {

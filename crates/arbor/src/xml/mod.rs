@@ -995,7 +995,11 @@ impl<'a, 'input> Loader<'a, 'input> {
                     self.error(node, "a Mesh needs a <data> element naming its mesh file")
                 })?;
                 let data = self.mesh(at, &file)?;
-                Surface::Mesh(MeshSurface { data, shader })
+                Surface::Mesh(MeshSurface {
+                    data,
+                    shader,
+                    two_sided: false,
+                })
             }
             _ => {
                 self.depth -= 1;
