@@ -1,5 +1,7 @@
 //! Image textures and environment cube maps (2015 variant).
 
+use std::path::Path;
+
 use glam::DVec3;
 
 /// How texture lookups outside `[0,1]` behave.
@@ -26,6 +28,26 @@ pub struct Texture {
 }
 
 impl Texture {
+    /// Reads an image file (any format the `image` crate reads; its default
+    /// limits bound the memory a hostile header can claim) as a texture.
+    /// The error says what went wrong, without the path.
+    pub fn load(path: &Path, wrap: Wrap) -> Result<Texture, String> {
+        let img = image::open(path).map_err(|e| e.to_string())?.to_rgb8();
+        if img.width() == 0 || img.height() == 0 {
+            return Err("the image has no pixels".into());
+        }
+        let texels = img
+            .pixels()
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / 255.0)
+            .collect();
+        Ok(Texture {
+            wrap,
+            width: img.width(),
+            height: img.height(),
+            texels,
+        })
+    }
+
     /// The texel for texture coordinates `(u, v)`: `x = floor(u w + 0.5)`,
     /// `y = floor((1 - v) h + 0.5)`, then clamped or wrapped.
     pub fn lookup(&self, u: f64, v: f64) -> DVec3 {

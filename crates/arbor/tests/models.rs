@@ -136,6 +136,86 @@ fn mtl_materials_become_shaders() {
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
 }
 
+/// The textures of a material (`map_Kd`) are read, also when written with
+/// Windows separators (`.\\SpiderTex.jpg` in spider.mtl), and shared by
+/// the materials that name the same image.
+#[test]
+fn mtl_textures_are_read() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+    let textures: Vec<_> = m
+        .surfaces
+        .iter()
+        .filter_map(|s| match s {
+            Surface::Mesh(m) => match &*m.shader {
+                Shader::Lambertian { texture, .. } | Shader::Phong { texture, .. } => {
+                    Some(texture.clone().expect("every spider material has a map_Kd"))
+                }
+                other => panic!("unexpected shader {other:?}"),
+            },
+            _ => None,
+        })
+        .collect();
+    assert!(textures.len() >= 5, "{}", textures.len());
+    assert!(textures.iter().all(|t| t.width > 0 && t.height > 0));
+}
+
+/// A texture that is missing or unreadable is a warning naming the file,
+/// the material and the texture; the model still loads, with the
+/// material's colour. A texture replaces the colour where it is found.
+#[test]
+fn missing_or_broken_textures_are_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("quad.obj");
+    std::fs::write(
+        &obj,
+        "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+         usemtl missing\nf 1/1 2/2 3/3\nusemtl broken\nf 1/1 3/3 4/4\n\
+         usemtl good\nf 1/1 2/2 4/4\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("quad.mtl"),
+        "newmtl missing\nKd 0.5 0.5 0.5\nmap_Kd nowhere.png\n\
+         newmtl broken\nKd 0.5 0.5 0.5\nmap_Kd broken.png\n\
+         newmtl good\nKd 0.5 0.5 0.5\nmap_Kd -s 1 1 1 good.png\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("broken.png"), b"not a png").unwrap();
+    image::RgbImage::from_pixel(2, 1, image::Rgb([255, 0, 0]))
+        .save(dir.path().join("good.png"))
+        .unwrap();
+    let m = load_model(&obj).unwrap();
+    let joined = m.warnings.join("\n");
+    assert_eq!(m.warnings.len(), 2, "{joined}");
+    assert!(
+        joined.contains("quad.obj") && joined.contains("'missing'"),
+        "{joined}"
+    );
+    assert!(
+        joined.contains("nowhere.png") && joined.contains("not found"),
+        "{joined}"
+    );
+    assert!(
+        joined.contains("'broken'") && joined.contains("broken.png"),
+        "{joined}"
+    );
+    let textured: Vec<bool> = m
+        .surfaces
+        .iter()
+        .map(|s| match s {
+            Surface::Mesh(m) => match &*m.shader {
+                Shader::Lambertian { texture, .. } => texture.is_some(),
+                other => panic!("unexpected shader {other:?}"),
+            },
+            other => panic!("unexpected surface {other:?}"),
+        })
+        .collect();
+    assert_eq!(textured, [false, false, true]);
+}
+
 #[test]
 fn concave_face_is_ear_clipped() {
     let Some(dir) = models() else { return };

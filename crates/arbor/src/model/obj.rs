@@ -28,7 +28,7 @@
 
 use crate::hash_map::HashMap;
 use std::io::Cursor;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3};
@@ -38,6 +38,7 @@ use super::{default_shader, short, Model, ModelStats};
 use crate::mesh::{MeshData, MeshError};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
+use crate::texture::{Texture, Wrap};
 
 /// Imports the OBJ file at `path` with its material library.
 pub fn load(path: &Path) -> Result<Model, MeshError> {
@@ -74,6 +75,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         }
     };
     let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::default();
+    let mut textures = Textures::new(&dir);
     let default = default_shader();
     let mut surfaces = Vec::new();
     let mut stats = ModelStats::default();
@@ -128,7 +130,14 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         let shader = match m.mesh.material_id {
             Some(id) if id < materials.len() => shaders
                 .entry(id)
-                .or_insert_with(|| shader_for(&materials[id]))
+                .or_insert_with(|| {
+                    let m = &materials[id];
+                    let texture = m
+                        .diffuse_texture
+                        .as_deref()
+                        .and_then(|name| textures.get(name, &m.name, path, &mut warnings));
+                    shader_for(m, texture)
+                })
                 .clone(),
             Some(_) => {
                 undefined_material = true;
@@ -167,8 +176,73 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
     })
 }
 
-/// The shader for an MTL material (the table in the module documentation).
-pub fn shader_for(m: &tobj::Material) -> Arc<Shader> {
+/// The texture images of one OBJ file's materials (`map_Kd`), each read
+/// once however many materials name it.
+struct Textures<'a> {
+    dir: &'a Path,
+    loaded: HashMap<PathBuf, Arc<Texture>>,
+}
+
+impl<'a> Textures<'a> {
+    fn new(dir: &'a Path) -> Self {
+        Textures {
+            dir,
+            loaded: HashMap::default(),
+        }
+    }
+
+    /// The texture `name` (from material `material` of the OBJ file `obj`),
+    /// or `None` with a warning when no readable image goes by that name:
+    /// a missing texture leaves the material's colour, it does not stop the
+    /// render. Names are tried as written, then with `\` read as a folder
+    /// separator (files written on Windows, `.\wood.jpg`), then as their
+    /// last word (options such as `-s 1 1 1` before the name).
+    fn get(
+        &mut self,
+        name: &str,
+        material: &str,
+        obj: &Path,
+        warnings: &mut Vec<String>,
+    ) -> Option<Arc<Texture>> {
+        let slashed = name.replace('\\', "/");
+        let last = slashed.split_whitespace().last().unwrap_or_default();
+        let Some(path) = [name, slashed.as_str(), last]
+            .iter()
+            .map(|n| self.dir.join(n))
+            .find(|p| p.is_file())
+        else {
+            warnings.push(format!(
+                "{}: warning: material '{material}': texture '{name}' not found; its colour is used",
+                obj.display()
+            ));
+            return None;
+        };
+        if let Some(t) = self.loaded.get(&path) {
+            return Some(t.clone());
+        }
+        match Texture::load(&path, Wrap::Repeat) {
+            Ok(t) => {
+                let t = Arc::new(t);
+                self.loaded.insert(path, t.clone());
+                Some(t)
+            }
+            Err(e) => {
+                warnings.push(format!(
+                    "{}: warning: material '{material}': cannot read texture '{}': {e}; its colour is used",
+                    obj.display(),
+                    path.display()
+                ));
+                None
+            }
+        }
+    }
+}
+
+/// The shader for an MTL material (the table in the module documentation),
+/// with its diffuse texture (`map_Kd`) when one was read: the texture
+/// replaces the diffuse colour, as textures do in the Cornell scenes, and
+/// wraps around (texture coordinates of models often leave `[0, 1]`).
+pub fn shader_for(m: &tobj::Material, texture: Option<Arc<Texture>>) -> Arc<Shader> {
     let rgb = |c: Option<[f32; 3]>, default: f64| {
         c.map_or(DVec3::splat(default), |[r, g, b]| {
             DVec3::new(r as f64, g as f64, b as f64).clamp(DVec3::ZERO, DVec3::ONE)
@@ -193,12 +267,12 @@ pub fn shader_for(m: &tobj::Material) -> Arc<Shader> {
             diffuse: kd,
             specular: ks,
             exponent: ns,
-            texture: None,
+            texture: texture.clone(),
         }
     } else {
         Shader::Lambertian {
             diffuse: kd,
-            texture: None,
+            texture,
         }
     };
     if matches!(illum, Some(3 | 5)) {

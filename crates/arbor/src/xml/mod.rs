@@ -754,24 +754,12 @@ impl<'a, 'input> Loader<'a, 'input> {
         let (at, file) =
             file.ok_or_else(|| self.error(node, "a texture needs an <image> file name"))?;
         let path = self.dir.join(&file);
-        let img = image::open(&path)
-            .map_err(|e| {
-                self.error(
-                    at,
-                    format!("cannot read texture image '{}': {e}", path.display()),
-                )
-            })?
-            .to_rgb8();
-        let texels = img
-            .pixels()
-            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / 255.0)
-            .collect();
-        let texture = Arc::new(Texture {
-            wrap,
-            width: img.width(),
-            height: img.height(),
-            texels,
-        });
+        let texture = Arc::new(Texture::load(&path, wrap).map_err(|e| {
+            self.error(
+                at,
+                format!("cannot read texture image '{}': {e}", path.display()),
+            )
+        })?);
         self.remember(node, Named::Texture(texture.clone()));
         Ok(texture)
     }
