@@ -55,6 +55,9 @@ fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
                 assert_eq!(ns.len(), n);
                 assert!(ns.iter().all(|v| v.is_finite() && v.length_squared() > 0.0));
             }
+            if let Some(uvs) = &d.uvs {
+                assert_eq!(uvs.len(), n, "texture coordinates one per vertex");
+            }
             placed += d.triangles.len() as u64;
         });
     }

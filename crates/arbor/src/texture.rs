@@ -32,7 +32,20 @@ impl Texture {
     /// limits bound the memory a hostile header can claim) as a texture.
     /// The error says what went wrong, without the path.
     pub fn load(path: &Path, wrap: Wrap) -> Result<Texture, String> {
-        let img = image::open(path).map_err(|e| e.to_string())?.to_rgb8();
+        Self::from_image(image::open(path).map_err(|e| e.to_string())?, wrap)
+    }
+
+    /// Decodes an image file's bytes (the format guessed from them) as a
+    /// texture, under the same limits as [`Texture::load`].
+    pub fn decode(bytes: &[u8], wrap: Wrap) -> Result<Texture, String> {
+        Self::from_image(
+            image::load_from_memory(bytes).map_err(|e| e.to_string())?,
+            wrap,
+        )
+    }
+
+    fn from_image(img: image::DynamicImage, wrap: Wrap) -> Result<Texture, String> {
+        let img = img.to_rgb8();
         if img.width() == 0 || img.height() == 0 {
             return Err("the image has no pixels".into());
         }

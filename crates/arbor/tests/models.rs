@@ -32,6 +32,28 @@ fn models() -> Option<PathBuf> {
     None
 }
 
+/// The shaders of every mesh as placed (each placement once), with whether
+/// the mesh has texture coordinates.
+fn mesh_shaders(surfaces: &[Surface]) -> Vec<(std::sync::Arc<Shader>, bool)> {
+    let mut out = Vec::new();
+    for s in surfaces {
+        s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
+            if let Surface::Mesh(m) = leaf {
+                out.push((m.shader.clone(), m.data.uvs.is_some()));
+            }
+        });
+    }
+    out
+}
+
+/// The diffuse texture of a Lambertian or Phong shader.
+fn texture_of(shader: &Shader) -> Option<std::sync::Arc<arbor::texture::Texture>> {
+    match shader {
+        Shader::Lambertian { texture, .. } | Shader::Phong { texture, .. } => texture.clone(),
+        other => panic!("unexpected shader {other:?}"),
+    }
+}
+
 fn triangles(surfaces: &[Surface]) -> usize {
     let mut n = 0;
     for s in surfaces {
@@ -144,18 +166,9 @@ fn mtl_textures_are_read() {
     let Some(dir) = models() else { return };
     let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
-    let textures: Vec<_> = m
-        .surfaces
+    let textures: Vec<_> = mesh_shaders(&m.surfaces)
         .iter()
-        .filter_map(|s| match s {
-            Surface::Mesh(m) => match &*m.shader {
-                Shader::Lambertian { texture, .. } | Shader::Phong { texture, .. } => {
-                    Some(texture.clone().expect("every spider material has a map_Kd"))
-                }
-                other => panic!("unexpected shader {other:?}"),
-            },
-            _ => None,
-        })
+        .map(|(shader, _)| texture_of(shader).expect("every spider material has a map_Kd"))
         .collect();
     assert!(textures.len() >= 5, "{}", textures.len());
     assert!(textures.iter().all(|t| t.width > 0 && t.height > 0));
@@ -202,16 +215,9 @@ fn missing_or_broken_textures_are_warnings() {
         joined.contains("'broken'") && joined.contains("broken.png"),
         "{joined}"
     );
-    let textured: Vec<bool> = m
-        .surfaces
+    let textured: Vec<bool> = mesh_shaders(&m.surfaces)
         .iter()
-        .map(|s| match s {
-            Surface::Mesh(m) => match &*m.shader {
-                Shader::Lambertian { texture, .. } => texture.is_some(),
-                other => panic!("unexpected shader {other:?}"),
-            },
-            other => panic!("unexpected surface {other:?}"),
-        })
+        .map(|(shader, _)| texture_of(shader).is_some())
         .collect();
     assert_eq!(textured, [false, false, true]);
 }
@@ -348,20 +354,7 @@ fn gltf_json(nodes: &str, scene_nodes: &str, extra: &str) -> String {
     for i in [0u16, 1, 2, 0] {
         bin.extend_from_slice(&i.to_le_bytes());
     }
-    const B64: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut uri = String::new();
-    for c in bin.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                uri.push(B64[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                uri.push('=');
-            }
-        }
-    }
+    let uri = base64::encode(&bin);
     format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":{scene_nodes}}}],"nodes":{nodes},
 "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}},"indices":1}}]}}],
@@ -371,6 +364,63 @@ fn gltf_json(nodes: &str, scene_nodes: &str, extra: &str) -> String {
 "buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{uri}"}}]{extra}}}"#,
         bin.len()
     )
+}
+
+/// Base colour textures load from each place glTF keeps images: a file
+/// beside the model, a `data:` URI, a GLB buffer view, all the same
+/// picture; texture coordinates come along.
+#[test]
+fn gltf_base_color_textures() {
+    let Some(dir) = models() else { return };
+    let mut texels = Vec::new();
+    for f in [
+        "glTF2/BoxTextured-glTF/BoxTextured.gltf",
+        "glTF2/BoxTextured-glTF-Embedded/BoxTextured.gltf",
+        "glTF2/BoxTextured-glTF-Binary/BoxTextured.glb",
+    ] {
+        let m = load_model(&dir.join(f)).unwrap_or_else(|e| panic!("{e}"));
+        assert!(m.warnings.is_empty(), "{f}: {:?}", m.warnings);
+        let shaders = mesh_shaders(&m.surfaces);
+        assert!(!shaders.is_empty(), "{f}");
+        for (shader, has_uvs) in shaders {
+            assert!(has_uvs, "{f}: texture coordinates");
+            let t = texture_of(&shader).unwrap_or_else(|| panic!("{f}: no texture"));
+            texels.push(t.texels.clone());
+        }
+    }
+    assert!(texels.windows(2).all(|w| w[0] == w[1]), "the same image");
+}
+
+/// An image that cannot be read (bad base64, bytes that are no image, a
+/// missing file) is a warning naming the material and the image; the model
+/// loads with the base colour.
+#[test]
+fn gltf_unreadable_textures_are_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    for (case, uri) in [
+        ("bad base64", "data:image/png;base64,@@@@"),
+        ("not an image", "data:image/png;base64,bm90IGFuIGltYWdl"),
+        ("missing file", "missing.png"),
+    ] {
+        let extra = format!(
+            r#","materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0}}}}}}],
+"textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}]"#
+        );
+        let json = gltf_json(r#"[{"mesh":0}]"#, "[0]", &extra)
+            .replace(r#""indices":1}"#, r#""indices":1,"material":0}"#);
+        let path = dir.path().join("t.gltf");
+        std::fs::write(&path, json).unwrap();
+        let m = load_model(&path).unwrap_or_else(|e| panic!("{case}: {e}"));
+        assert_eq!(m.warnings.len(), 1, "{case}: {:?}", m.warnings);
+        let w = &m.warnings[0];
+        assert!(
+            w.contains("t.gltf") && w.contains("material 0") && w.contains("image 0"),
+            "{case}: {w}"
+        );
+        let shaders = mesh_shaders(&m.surfaces);
+        assert_eq!(shaders.len(), 1, "{case}");
+        assert!(texture_of(&shaders[0].0).is_none(), "{case}");
+    }
 }
 
 #[test]

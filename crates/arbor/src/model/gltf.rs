@@ -5,10 +5,12 @@
 //! given). A mesh is built once as one shared `Arc<Surface>` and placed by
 //! [`Surface::Instance`] wherever a node uses it, so a mesh used by many
 //! nodes is stored once and [`crate::flatten::Flattened`] keeps it shared.
-//! Triangle primitives are read with their normals; other modes (points,
-//! lines, strips and fans) are skipped with a warning. The base colour
-//! factor becomes the diffuse colour (Phong with a highlight from the
-//! roughness). The first camera met in the scene becomes ours; without one
+//! Triangle primitives are read with their normals and first texture
+//! coordinates; other modes (points, lines, strips and fans) are skipped
+//! with a warning. The base colour factor becomes the diffuse colour (Phong
+//! with a highlight from the roughness), replaced by the base colour
+//! texture where one can be read (from a buffer view, a `data:` URI or a
+//! file beside the model; otherwise a warning). The first camera met in the scene becomes ours; without one
 //! [`super::frame`] frames the model.
 //!
 //! The crate validates indices between JSON objects; what it leaves to us
@@ -18,10 +20,11 @@
 //! hierarchy multiplies out to.
 
 use crate::hash_map::HashMap;
-use std::path::Path;
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{DMat4, DVec3, DVec4, Vec3};
+use glam::{DMat4, DVec3, DVec4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
 use super::{Model, ModelStats};
@@ -30,6 +33,7 @@ use crate::flatten::DEFAULT_MAX_PLACEMENTS;
 use crate::mesh::{MeshData, MeshError};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
+use crate::texture::{Texture, Wrap};
 
 /// Imports the glTF or GLB file at `path`, external buffers resolved
 /// beside it.
@@ -82,8 +86,10 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
         .map_err(|e| MeshError::file(path, format!("cannot load a buffer: {e}")))?;
     Importer {
         path,
+        base,
         doc: &gltf.document,
         buffers: buffers.iter().map(|b| b.0.as_slice()).collect(),
+        textures: HashMap::default(),
         meshes: HashMap::default(),
         mesh_triangles: HashMap::default(),
         mesh_uses: HashMap::default(),
@@ -112,19 +118,13 @@ fn check_buffer_uris(
             continue;
         };
         let fail = |why: &str| MeshError::file(path, format!("buffer {}: {why}", buffer.index()));
-        let file = if let Some(rest) = uri.strip_prefix("file://").or(uri.strip_prefix("file:")) {
-            Path::new(rest).to_path_buf()
-        } else if uri.contains(':') {
-            continue; // data: URIs, and schemes the crate refuses
-        } else {
-            let decoded =
-                percent_decode(uri).ok_or_else(|| fail("the URI is not percent-encoded UTF-8"))?;
-            match base {
-                Some(base) => base.join(decoded),
-                None => continue, // the crate refuses external buffers
-            }
+        // data: URIs, schemes the crate refuses, and relative URIs without a
+        // base folder (the crate refuses external buffers then) are left to
+        // the crate.
+        let Some(file) = uri_file(uri, base).map_err(fail)? else {
+            continue;
         };
-        if base.is_some() && !std::fs::metadata(&file).is_ok_and(|m| m.is_file()) {
+        if base.is_some() && !is_regular_file(&file) {
             return Err(fail(&format!(
                 "'{}' is not a readable file",
                 file.display()
@@ -132,6 +132,27 @@ fn check_buffer_uris(
         }
     }
     Ok(())
+}
+
+/// The file a `file:` or relative URI names (relative ones beside `base`),
+/// or `None` for other schemes (`data:`) and for a relative URI without a
+/// base folder; an error when a relative URI does not percent-decode to
+/// UTF-8.
+fn uri_file(uri: &str, base: Option<&Path>) -> Result<Option<PathBuf>, &'static str> {
+    if let Some(rest) = uri.strip_prefix("file://").or(uri.strip_prefix("file:")) {
+        return Ok(Some(PathBuf::from(rest)));
+    }
+    if uri.contains(':') {
+        return Ok(None);
+    }
+    let decoded = percent_decode(uri).ok_or("the URI is not percent-encoded UTF-8")?;
+    Ok(base.map(|b| b.join(decoded)))
+}
+
+/// Whether `path` is a regular file (not a folder, and not a device such as
+/// `/dev/zero`, which would be read forever).
+fn is_regular_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| m.is_file())
 }
 
 /// Decodes `%XX` escapes (others kept as they are); `None` when the result
@@ -159,10 +180,25 @@ fn percent_decode(s: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
+/// What an accessor is read as.
+#[derive(Clone, Copy)]
+enum Usage {
+    /// A triangle index list.
+    Indices,
+    /// Positions or normals: VEC3 of floats.
+    Vectors,
+    /// Texture coordinates: VEC2 of floats or normalized integers.
+    TexCoords,
+}
+
 struct Importer<'a> {
     path: &'a Path,
+    /// The folder external files are read from, if any.
+    base: Option<&'a Path>,
     doc: &'a gltf::Document,
     buffers: Vec<&'a [u8]>,
+    /// Each image read once, by index (`None`: it could not be read).
+    textures: HashMap<usize, Option<Arc<Texture>>>,
     /// Each mesh built once, shared by every node that uses it.
     meshes: HashMap<usize, Arc<Surface>>,
     mesh_triangles: HashMap<usize, u64>,
@@ -378,7 +414,11 @@ impl Importer<'_> {
             triangles += data.triangles.len() as u64;
             parts.push(Surface::Mesh(MeshSurface {
                 data: Arc::new(data),
-                shader: shader_for(&prim.material()),
+                shader: {
+                    let material = prim.material();
+                    let texture = self.base_color_texture(&material);
+                    shader_for(&material, texture)
+                },
                 two_sided: true,
             }));
         }
@@ -400,15 +440,14 @@ impl Importer<'_> {
     }
 
     /// Whether `accessor` holds what its use needs (the crate's readers
-    /// assume the type and panic on another; `indices` is the index list
-    /// rather than a VEC3 float attribute), with a stride no shorter than
+    /// assume the type and panic on another), with a stride no shorter than
     /// an element, and its data lies inside its buffer (the crate's readers
     /// slice without checking).
     fn check_accessor(
         &self,
         mesh: usize,
         accessor: &gltf::Accessor,
-        indices: bool,
+        usage: Usage,
     ) -> Result<(), MeshError> {
         use gltf::accessor::{DataType, Dimensions};
         let fail =
@@ -417,14 +456,28 @@ impl Importer<'_> {
             return Err(fail("is sparse, which is not supported"));
         }
         let (ty, dims) = (accessor.data_type(), accessor.dimensions());
-        if indices {
-            if dims != Dimensions::Scalar
-                || !matches!(ty, DataType::U8 | DataType::U16 | DataType::U32)
-            {
-                return Err(fail("holds indices that are not unsigned integer scalars"));
+        match usage {
+            Usage::Indices => {
+                if dims != Dimensions::Scalar
+                    || !matches!(ty, DataType::U8 | DataType::U16 | DataType::U32)
+                {
+                    return Err(fail("holds indices that are not unsigned integer scalars"));
+                }
             }
-        } else if dims != Dimensions::Vec3 || ty != DataType::F32 {
-            return Err(fail("is not VEC3 of floats"));
+            Usage::Vectors => {
+                if dims != Dimensions::Vec3 || ty != DataType::F32 {
+                    return Err(fail("is not VEC3 of floats"));
+                }
+            }
+            Usage::TexCoords => {
+                let normalized =
+                    accessor.normalized() && matches!(ty, DataType::U8 | DataType::U16);
+                if dims != Dimensions::Vec2 || !(ty == DataType::F32 || normalized) {
+                    return Err(fail(
+                        "holds texture coordinates that are not VEC2 of floats or normalized bytes or shorts",
+                    ));
+                }
+            }
         }
         let Some(view) = accessor.view() else {
             return Err(fail("has no buffer view"));
@@ -456,21 +509,105 @@ impl Importer<'_> {
         Ok(())
     }
 
+    /// The base colour texture of material `m`, each image read once; `None`
+    /// (with a warning naming the material and the image) when there is
+    /// none or it cannot be read: the base colour is used instead, the
+    /// model still loads.
+    fn base_color_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
+        let info = m.pbr_metallic_roughness().base_color_texture()?;
+        let material = m.index().map_or("default".to_string(), |i| i.to_string());
+        if info.tex_coord() != 0 {
+            self.warnings.push(format!(
+                "{}: warning: material {material}: its base colour texture uses TEXCOORD_{}, only TEXCOORD_0 is read; the base colour is used",
+                self.path.display(),
+                info.tex_coord()
+            ));
+            return None;
+        }
+        let image = info.texture().source();
+        if let Some(t) = self.textures.get(&image.index()) {
+            return t.clone();
+        }
+        let texture = match self
+            .image_bytes(&image)
+            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat))
+        {
+            Ok(t) => Some(Arc::new(t)),
+            Err(e) => {
+                self.warnings.push(format!(
+                    "{}: warning: material {material}: image {}: {e}; the base colour is used",
+                    self.path.display(),
+                    image.index()
+                ));
+                None
+            }
+        };
+        self.textures.insert(image.index(), texture.clone());
+        texture
+    }
+
+    /// The encoded bytes of `image`: a slice of a buffer (checked against
+    /// its end), a `data:` URI, or a file beside the model (only when the
+    /// model was read from a folder, and only a regular file).
+    fn image_bytes(&self, image: &gltf::Image) -> Result<Cow<'_, [u8]>, String> {
+        match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let buffer = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .ok_or("its buffer view refers to a missing buffer")?;
+                view.offset()
+                    .checked_add(view.length())
+                    .and_then(|end| buffer.get(view.offset()..end))
+                    .map(Cow::Borrowed)
+                    .ok_or_else(|| "its buffer view runs beyond the end of its buffer".into())
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (_, data) = rest
+                        .split_once(";base64,")
+                        .ok_or("a data: URI that is not base64")?;
+                    return base64::decode(data)
+                        .map(Cow::Owned)
+                        .map_err(|e| format!("bad base64 in its data: URI ({e})"));
+                }
+                let file = match (uri_file(uri, self.base)?, self.base) {
+                    (Some(file), Some(_)) => file,
+                    _ => return Err("its URI names no file that can be read here".into()),
+                };
+                if !is_regular_file(&file) {
+                    return Err(format!("'{}' is not a readable file", file.display()));
+                }
+                std::fs::read(&file)
+                    .map(Cow::Owned)
+                    .map_err(|e| format!("cannot read '{}': {e}", file.display()))
+            }
+        }
+    }
+
     fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, MeshError> {
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             return Err(self.err(format!("mesh {mesh}: a primitive has no POSITION")));
         };
-        self.check_accessor(mesh, &pos_acc, false)?;
+        self.check_accessor(mesh, &pos_acc, Usage::Vectors)?;
         // The crate's readers underflow on an empty accessor: read none.
         // Normals that do not match the positions one to one are dropped.
         let normal_acc = prim
             .get(&gltf::Semantic::Normals)
             .filter(|a| a.count() == pos_acc.count());
         if let Some(a) = &normal_acc {
-            self.check_accessor(mesh, a, false)?;
+            self.check_accessor(mesh, a, Usage::Vectors)?;
+        }
+        // Texture coordinates (set 0, the one base colour textures use
+        // here), likewise.
+        let uv_acc = prim
+            .get(&gltf::Semantic::TexCoords(0))
+            .filter(|a| a.count() == pos_acc.count());
+        if let Some(a) = &uv_acc {
+            self.check_accessor(mesh, a, Usage::TexCoords)?;
         }
         if let Some(a) = prim.indices() {
-            self.check_accessor(mesh, &a, true)?;
+            self.check_accessor(mesh, &a, Usage::Indices)?;
         }
         if pos_acc.count() == 0 || prim.indices().is_some_and(|a| a.count() == 0) {
             return Ok(MeshData::default());
@@ -487,6 +624,16 @@ impl Importer<'_> {
             .then(|| reader.read_normals().map(|it| it.map(Vec3::from).collect()))
             .flatten()
             .filter(|n: &Vec<Vec3>| n.len() == positions.len());
+        // glTF's v runs down the image, ours (the course's) up.
+        let uvs: Option<Vec<Vec2>> = uv_acc
+            .is_some()
+            .then(|| {
+                reader
+                    .read_tex_coords(0)
+                    .map(|it| it.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
+            })
+            .flatten()
+            .filter(|t: &Vec<Vec2>| t.len() == positions.len());
         let indices: Vec<u32> = match reader.read_indices() {
             Some(it) => it.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
@@ -504,7 +651,7 @@ impl Importer<'_> {
                 .collect(),
             positions,
             normals,
-            uvs: None,
+            uvs,
         };
         super::check_finite(self.path, &data.positions)?;
         super::sanitize_normals(&mut data);
@@ -514,8 +661,9 @@ impl Importer<'_> {
 
 /// The shader for a glTF material: the base colour is the diffuse colour;
 /// a smooth (low roughness) surface gets a Phong highlight whose exponent
-/// grows as the roughness falls, metals tinted by their colour.
-pub fn shader_for(m: &gltf::Material) -> Arc<Shader> {
+/// grows as the roughness falls, metals tinted by their colour. A base
+/// colour texture, when one was read, replaces the diffuse colour.
+pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shader> {
     let pbr = m.pbr_metallic_roughness();
     let c = pbr.base_color_factor();
     let base = DVec4::from_array(c.map(f64::from))
@@ -526,7 +674,7 @@ pub fn shader_for(m: &gltf::Material) -> Arc<Shader> {
     if rough >= 0.9 {
         return Arc::new(Shader::Lambertian {
             diffuse: base,
-            texture: None,
+            texture,
         });
     }
     let specular = DVec3::splat(0.04).lerp(base, metal) * (1.0 - rough);
@@ -537,6 +685,6 @@ pub fn shader_for(m: &gltf::Material) -> Arc<Shader> {
         diffuse: base * (1.0 - metal * 0.7),
         specular,
         exponent,
-        texture: None,
+        texture,
     })
 }
