@@ -548,10 +548,22 @@ impl Importer<'_> {
 
     /// The encoded bytes of `image`: a slice of a buffer (checked against
     /// its end), a `data:` URI, or a file beside the model (only when the
-    /// model was read from a folder, and only a regular file).
+    /// model was read from a folder, and only a regular file). Read from the
+    /// JSON: the crate's `Image::source` unwraps a missing URI and a missing
+    /// MIME type of a buffer view, which its validation lets through.
     fn image_bytes(&self, image: &gltf::Image) -> Result<Cow<'_, [u8]>, String> {
-        match image.source() {
-            gltf::image::Source::View { view, .. } => {
+        let json = &self.doc.as_json().images[image.index()];
+        let view = match &json.buffer_view {
+            Some(index) => Some(
+                self.doc
+                    .views()
+                    .nth(index.value())
+                    .ok_or("its buffer view does not exist")?,
+            ),
+            None => None,
+        };
+        match (view, &json.uri) {
+            (Some(view), _) => {
                 let buffer = self
                     .buffers
                     .get(view.buffer().index())
@@ -562,7 +574,7 @@ impl Importer<'_> {
                     .map(Cow::Borrowed)
                     .ok_or_else(|| "its buffer view runs beyond the end of its buffer".into())
             }
-            gltf::image::Source::Uri { uri, .. } => {
+            (None, Some(uri)) => {
                 if let Some(rest) = uri.strip_prefix("data:") {
                     let (_, data) = rest
                         .split_once(";base64,")
@@ -582,6 +594,7 @@ impl Importer<'_> {
                     .map(Cow::Owned)
                     .map_err(|e| format!("cannot read '{}': {e}", file.display()))
             }
+            (None, None) => Err("it has neither a URI nor a buffer view".into()),
         }
     }
 
