@@ -163,17 +163,58 @@ pub enum PartState {
     Stale,
 }
 
-/// Job ids submitted for an output, from `OUT.parts/jobs.txt` (lines
-/// `render ID` and `merge ID`, oldest first).
-pub fn recorded_jobs(out: &Path) -> Vec<(String, String)> {
-    std::fs::read_to_string(parts_dir(out).join("jobs.txt"))
-        .unwrap_or_default()
-        .lines()
+/// A job submitted for an output, as `OUT.parts/jobs.txt` records it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RecordedJob {
+    /// `render` or `merge`.
+    pub kind: String,
+    /// Slurm's job id.
+    pub id: String,
+    /// For a render array: added to an array task id, it gives the task
+    /// index (scene x tiles + tile). Non-zero when the tasks outnumber the
+    /// cluster's `MaxArraySize` and were split over several arrays.
+    pub offset: u32,
+}
+
+/// The jobs submitted for an output, oldest first, from `OUT.parts/jobs.txt`
+/// (lines `render ID`, `render ID +OFFSET` and `merge ID`).
+pub fn recorded_jobs(out: &Path) -> Vec<RecordedJob> {
+    parse_jobs(&std::fs::read_to_string(parts_dir(out).join("jobs.txt")).unwrap_or_default())
+}
+
+fn parse_jobs(text: &str) -> Vec<RecordedJob> {
+    text.lines()
         .filter_map(|l| {
-            let (kind, id) = l.split_once(' ')?;
-            Some((kind.to_string(), id.trim().to_string()))
+            let mut words = l.split_whitespace();
+            let (kind, id) = (words.next()?, words.next()?);
+            let offset = match words.next() {
+                Some(w) => w.strip_prefix('+')?.parse().ok()?,
+                None => 0,
+            };
+            Some(RecordedJob {
+                kind: kind.to_string(),
+                id: id.to_string(),
+                offset,
+            })
         })
         .collect()
+}
+
+/// The render tasks `todo` (ascending task indices) as array jobs: pairs
+/// of an offset and the array task ids (`task index - offset`), each array
+/// holding the indices of one window `[k max, (k + 1) max)`, so that every
+/// array task id lies below `max`, the cluster's `MaxArraySize` (Slurm
+/// refuses higher ones). Without a known limit, one array at offset 0.
+pub fn array_batches(todo: &[u32], max: Option<u32>) -> Vec<(u32, Vec<u32>)> {
+    let mut batches: Vec<(u32, Vec<u32>)> = Vec::new();
+    for &t in todo {
+        let offset = max.map_or(0, |m| t / m * m);
+        match batches.last_mut() {
+            Some((o, ids)) if *o == offset => ids.push(t - offset),
+            _ => batches.push((offset, vec![t - offset])),
+        }
+    }
+    batches
 }
 
 /// One line of `squeue`: a job, or one task of an array job.
@@ -193,7 +234,7 @@ pub struct QueueEntry {
 /// is missing or fails (no Slurm here).
 pub fn squeue() -> Option<Vec<QueueEntry>> {
     let out = std::process::Command::new("squeue")
-        .args(["-h", "-r", "-o", "%A|%a|%T|%r"])
+        .args(["-h", "-r", "-o", "%F|%K|%T|%r"])
         .output()
         .ok()?;
     if !out.status.success() {
@@ -202,8 +243,11 @@ pub fn squeue() -> Option<Vec<QueueEntry>> {
     Some(parse_squeue(&String::from_utf8_lossy(&out.stdout)))
 }
 
-/// Parses `squeue -h -r -o '%A|%a|%T|%r'`. A pending array whose tasks are
-/// still folded shows a range (`3-7%2`); it is expanded.
+/// Parses `squeue -h -r -o '%F|%K|%T|%r'`: the array job id (a plain job's
+/// own id), the array task id (`N/A` for a plain job), state and reason.
+/// (`%A|%a`, used before, is each task's own job id and the *account*: no
+/// task was ever recognised.) A pending array whose tasks are still folded
+/// shows a range (`3-7%2`); it is expanded.
 pub fn parse_squeue(text: &str) -> Vec<QueueEntry> {
     let mut out = Vec::new();
     for line in text.lines() {
@@ -304,6 +348,45 @@ mod tests {
         assert_eq!(parse_index_list("0-3,7"), Some(vec![0, 1, 2, 3, 7]));
         assert_eq!(parse_index_list("[2-3]"), Some(vec![2, 3]));
         assert_eq!(parse_index_list("N/A"), None);
+    }
+
+    #[test]
+    fn arrays_stay_below_max_array_size() {
+        assert_eq!(
+            array_batches(&[0, 1, 2, 7], None),
+            vec![(0, vec![0, 1, 2, 7])]
+        );
+        assert_eq!(
+            array_batches(&[0, 1, 2, 7], Some(1001)),
+            vec![(0, vec![0, 1, 2, 7])]
+        );
+        // MaxArraySize 4: ids 0-3 only; windows 0-3, 4-7, 8-11.
+        assert_eq!(
+            array_batches(&[1, 3, 4, 9, 10, 11], Some(4)),
+            vec![(0, vec![1, 3]), (4, vec![0]), (8, vec![1, 2, 3])]
+        );
+        assert!(array_batches(&[], Some(4)).is_empty());
+        for (offset, ids) in array_batches(&(0..2500).collect::<Vec<_>>(), Some(1001)) {
+            assert!(ids.iter().all(|&i| i < 1001), "offset {offset}");
+        }
+    }
+
+    #[test]
+    fn job_records() {
+        let jobs = parse_jobs("render 12\nmerge 13\nrender 14 +1001\nrender 15 1001\n");
+        let short: Vec<_> = jobs
+            .iter()
+            .map(|j| (j.kind.as_str(), j.id.as_str(), j.offset))
+            .collect();
+        // A third word without its `+` is not ours: the line is skipped.
+        assert_eq!(
+            short,
+            [
+                ("render", "12", 0),
+                ("merge", "13", 0),
+                ("render", "14", 1001)
+            ]
+        );
     }
 
     #[test]

@@ -1,7 +1,9 @@
-//! `arbor farm slurm`: one Slurm array job (a task per tile and scene) and
-//! a merge job that waits for it (`--dependency=afterok`). Parts already on
-//! disk are the checkpoint: running the same command again submits only
-//! the tiles that are neither done nor still queued or running.
+//! `arbor farm slurm`: one Slurm array job (a task per tile and scene;
+//! several arrays when the tasks outnumber the cluster's `MaxArraySize`)
+//! and a merge job that waits for them (`--dependency=afterok`). Parts
+//! already on disk are the checkpoint: running the same command again
+//! submits only the tiles that are neither done nor still queued or
+//! running.
 
 use std::collections::HashSet;
 use std::fmt::Write as _;
@@ -14,7 +16,10 @@ use arbor::film::ImageFormat;
 use arbor_accel::AccelKind;
 use clap::Args;
 
-use super::{index_list, max_array_size, parts_dir, recorded_jobs, squeue, Manifest, PartState};
+use super::{
+    array_batches, index_list, max_array_size, parts_dir, recorded_jobs, squeue, Manifest,
+    PartState,
+};
 use crate::InputError;
 
 /// Arguments of `arbor farm slurm`.
@@ -88,7 +93,7 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
     let in_queue = |kind: &str| -> Vec<super::QueueEntry> {
         queue
             .iter()
-            .filter(|e| jobs.iter().any(|(k, id)| k == kind && *id == e.job))
+            .filter(|e| jobs.iter().any(|j| j.kind == kind && j.id == e.job))
             .cloned()
             .collect()
     };
@@ -112,7 +117,17 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let active: HashSet<u32> = active_tasks.iter().filter_map(|e| e.task).collect();
+    // Task indices: an array's task id plus the offset its job was
+    // submitted with.
+    let offset_of = |job: &str| {
+        jobs.iter()
+            .find(|j| j.kind == "render" && j.id == job)
+            .map_or(0, |j| j.offset)
+    };
+    let active: HashSet<u32> = active_tasks
+        .iter()
+        .filter_map(|e| Some(e.task? + offset_of(&e.job)))
+        .collect();
 
     let n = manifest.tiles;
     let mut todo = Vec::new();
@@ -141,29 +156,49 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         return Ok(());
     }
 
-    // Slurm refuses array indices at or above MaxArraySize with a terse
-    // "Invalid job array specification": say what to change instead.
-    if let (Some(&top), Some(max)) = (todo.iter().max(), max_array_size()) {
-        if top >= max {
-            return Err(InputError(format!(
-                "{}: the render tasks need Slurm array indices up to {top} ({} scene(s) x {n} tiles), but this cluster's MaxArraySize is {max} (indices below {max}); use fewer --tiles or fewer scenes per submission, or ask the administrators to raise MaxArraySize",
-                output.display(),
-                manifest.scenes.len()
-            ))
-            .into());
-        }
+    // Slurm refuses array task ids at or above MaxArraySize (with a terse
+    // "Invalid job array specification"): more tasks go in several arrays,
+    // each shifted by an offset that its script adds back.
+    let max = max_array_size();
+    if max == Some(0) {
+        return Err(InputError(format!(
+            "{}: this cluster's MaxArraySize is 0: job arrays are disabled, and the render tasks need one",
+            output.display()
+        ))
+        .into());
     }
-    let render_script = render_script(&manifest, &args, &arbor, &todo);
+    let batches: Vec<(PathBuf, String, u32, Vec<u32>)> = array_batches(&todo, max)
+        .into_iter()
+        .map(|(offset, ids)| {
+            let name = match offset {
+                0 => "render.sbatch".to_string(),
+                o => format!("render-{o}.sbatch"),
+            };
+            let script = render_script(&manifest, &args, &arbor, offset, &ids);
+            (parts.join(name), script, offset, ids)
+        })
+        .collect();
     let merge_script = merge_script(&manifest, &args, &arbor);
     if args.dry_run {
-        println!("# {}", parts.join("render.sbatch").display());
-        println!("{render_script}");
+        for (path, script, _, _) in &batches {
+            println!("# {}", path.display());
+            println!("{script}");
+        }
         println!("# {}", parts.join("merge.sbatch").display());
         println!("{merge_script}");
         println!(
-            "# dry run: would submit {} render task(s) (array {}), {done} of {total} tiles done, {} queued or running; then the merge job",
+            "# dry run: would submit {} render task(s) (array {}{}), {done} of {total} tiles done, {} queued or running; then the merge job",
             todo.len(),
             if todo.is_empty() { "-".into() } else { index_list(&todo) },
+            if batches.len() > 1 {
+                format!(
+                    "; {} array jobs, as MaxArraySize is {}",
+                    batches.len(),
+                    max.unwrap_or_default()
+                )
+            } else {
+                String::new()
+            },
             active.len()
         );
         return Ok(());
@@ -193,22 +228,26 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
             dependency.push(format!("{}_{t}", e.job));
         }
     }
-    if !todo.is_empty() {
-        let path = parts.join("render.sbatch");
-        write_text(&path, &render_script)?;
-        let id = sbatch(&[], &path)?;
-        record_job(&output, "render", &id)?;
+    for (k, (path, script, offset, ids)) in batches.iter().enumerate() {
+        write_text(path, script)?;
+        let id = sbatch(&[], path)?;
+        record_job(&output, "render", &id, *offset)?;
         println!(
-            "submitted render job {id}: {} task(s), array {} ({done} of {total} tiles already done{})",
-            todo.len(),
-            index_list(&todo),
+            "submitted render job {id}: {} task(s), array {}{} ({done} of {total} tiles already done{})",
+            ids.len(),
+            index_list(ids),
+            if *offset > 0 {
+                format!(" + {offset}")
+            } else {
+                String::new()
+            },
             if stale > 0 {
                 format!(", {stale} stale parts to redo")
             } else {
                 String::new()
             }
         );
-        dependency.insert(0, id);
+        dependency.insert(k, id);
     }
     if !active.is_empty() {
         println!(
@@ -225,7 +264,7 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         vec![dep_arg.as_str()]
     };
     let merge_id = sbatch(&extra, &path)?;
-    record_job(&output, "merge", &merge_id)?;
+    record_job(&output, "merge", &merge_id, 0)?;
     println!(
         "submitted merge job {merge_id}; parts in {}; progress: arbor farm status {}",
         parts.display(),
@@ -309,11 +348,12 @@ fn common_options(s: &mut String, args: &SlurmArgs) {
 }
 
 /// The array job: task `i` renders tile `i mod N` of scene `i div N`.
-fn render_script(m: &Manifest, args: &SlurmArgs, arbor: &Path, todo: &[u32]) -> String {
+/// The render array script for the task indices `offset + ids`.
+fn render_script(m: &Manifest, args: &SlurmArgs, arbor: &Path, offset: u32, ids: &[u32]) -> String {
     let parts = parts_dir(&m.output);
-    let mut s = String::from("#!/bin/bash\n# arbor farm: render tasks, one per tile and scene (task i = tile i mod N of scene i div N).\n");
+    let mut s = String::from("#!/bin/bash\n# arbor farm: render tasks, one per tile and scene (task i = array task id + offset;\n# tile i mod N of scene i div N).\n");
     let _ = writeln!(s, "#SBATCH --job-name=arbor-render");
-    let _ = writeln!(s, "#SBATCH --array={}", index_list(todo));
+    let _ = writeln!(s, "#SBATCH --array={}", index_list(ids));
     let _ = writeln!(s, "#SBATCH --requeue");
     let _ = writeln!(s, "#SBATCH --cpus-per-task={}", args.cpus_per_task);
     let _ = writeln!(
@@ -330,7 +370,7 @@ fn render_script(m: &Manifest, args: &SlurmArgs, arbor: &Path, todo: &[u32]) -> 
     let width = (m.tiles - 1).max(1).to_string().len();
     let _ = writeln!(
         s,
-        "i=$SLURM_ARRAY_TASK_ID\nscene=$((i / tiles))\nk=$((i % tiles))\npart=\"${{parts[$scene]}}/$(printf 'tile-%0{width}d-of-%d.part' \"$k\" \"$tiles\")\""
+        "i=$((SLURM_ARRAY_TASK_ID + {offset}))\nscene=$((i / tiles))\nk=$((i % tiles))\npart=\"${{parts[$scene]}}/$(printf 'tile-%0{width}d-of-%d.part' \"$k\" \"$tiles\")\""
     );
     let _ = writeln!(
         s,
@@ -374,7 +414,9 @@ fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
         .map_err(anyhow::Error::from)
 }
 
-fn record_job(output: &Path, kind: &str, id: &str) -> anyhow::Result<()> {
+/// Appends `KIND ID` (and ` +OFFSET` for a shifted render array) to
+/// `OUT.parts/jobs.txt` (see [`super::RecordedJob`]).
+fn record_job(output: &Path, kind: &str, id: &str, offset: u32) -> anyhow::Result<()> {
     use std::io::Write;
     let path = parts_dir(output).join("jobs.txt");
     let mut f = std::fs::OpenOptions::new()
@@ -382,7 +424,12 @@ fn record_job(output: &Path, kind: &str, id: &str) -> anyhow::Result<()> {
         .append(true)
         .open(&path)
         .with_context(|| format!("{}: cannot write", path.display()))?;
-    writeln!(f, "{kind} {id}").with_context(|| format!("{}: cannot write", path.display()))
+    let shift = if offset > 0 {
+        format!(" +{offset}")
+    } else {
+        String::new()
+    };
+    writeln!(f, "{kind} {id}{shift}").with_context(|| format!("{}: cannot write", path.display()))
 }
 
 /// Submits `script`; returns the job id.

@@ -41,14 +41,15 @@ pub fn run(args: StatusArgs) -> anyhow::Result<()> {
     let mut tasks: HashMap<u32, String> = HashMap::new();
     let mut merge_state = None;
     if let Some(queue) = &queue {
-        for (kind, id) in &jobs {
-            for e in queue.iter().filter(|e| &e.job == id) {
-                match (kind.as_str(), e.task) {
+        for job in &jobs {
+            for e in queue.iter().filter(|e| e.job == job.id) {
+                match (job.kind.as_str(), e.task) {
                     ("render", Some(t)) => {
-                        tasks.insert(t, e.state.clone());
+                        tasks.insert(t + job.offset, e.state.clone());
                     }
                     ("merge", _) => {
-                        merge_state = Some(format!("merge job {id}: {} ({})", e.state, e.reason))
+                        merge_state =
+                            Some(format!("merge job {}: {} ({})", job.id, e.state, e.reason))
                     }
                     _ => {}
                 }
