@@ -5,14 +5,16 @@
 # which RUSTC_BOOTSTRAP=1 allows (AddressSanitizer included, on x86_64 Linux).
 #
 # The runs are reproducible: a fixed seed, a fixed number of runs per target
-# (about 20 s each on the CI machine), address space randomisation off
-# (setarch -R; pointer values reach hashing and comparisons) and, in the
-# targets and the library, nothing else that varies between processes
-# (fuzz/one_thread.rs, crates/arbor/src/hash_map.rs). So the smoke passes or
-# fails the same way on every machine with the same toolchain, and running
-# this script before pushing shows what CI will see (checked: two runs give
-# identical logs for accel, msh, obj, ply, stl and gltf; xml drifts after
-# some 15,000 runs, cause not found). A time limit of twice SECONDS per
+# (about 20 s each on the CI machine), no corpus reload (libFuzzer rereads
+# its corpus folder every second by default, a clock in the loop), address
+# space randomisation off (setarch -R; pointer values reach hashing and
+# comparisons) and, in the targets and the library, nothing else that
+# varies between processes (fuzz/one_thread.rs,
+# crates/arbor/src/hash_map.rs). So the smoke passes or fails the same way
+# on every machine with the same toolchain, and running this script before
+# pushing shows what CI will see (checked: two runs give identical logs for
+# every target; xml, the last to drift, until -reload=0, is identical over
+# its 400,000 runs). A time limit of twice SECONDS per
 # target only guards against a slow machine: it cuts the same sequence of
 # inputs short, so it can find nothing a full run would not. Finding new
 # bugs is the job of long fuzzing runs (docs/robustness.md), not of this
@@ -62,7 +64,7 @@ for t in "${targets[@]}"; do
   [ -d "fuzz/corpus/$t" ] && corpus+=("fuzz/corpus/$t")
   started=$SECONDS
   if ! $no_aslr cargo fuzz run -O -a "$t" "${corpus[@]}" -- \
-      -seed="$seed" -runs="${runs[$t]}" -max_total_time=$((2 * seconds)) \
+      -seed="$seed" -runs="${runs[$t]}" -reload=0 -max_total_time=$((2 * seconds)) \
       -timeout=20 -rss_limit_mb=2048 \
       >"$scratch/$t.log" 2>&1; then
     # The failed check first (the stack trace after it is long), then the
