@@ -484,15 +484,17 @@ impl FlatScene {
                     Some(ns) => a * ns[i0] + b * ns[i1] + g * ns[i2],
                     None => geometric,
                 };
-                let glass = matches!(*self.shaders[prim.shader as usize], Shader::Glass { .. });
                 // Two-sided: the normal turned to the ray's side of the
                 // triangle when it points to the far side. The side is
                 // decided by the geometric normal (in the space of `od`;
                 // the inverse transpose keeps the sign of `n . d`), not by
                 // the interpolated normal, which can face away from the
-                // viewer near silhouettes of the front side too.
-                let far_side = geometric.dot(od) * geometric.dot(n) > 0.0;
-                if m.two_sided && !glass && far_side {
+                // viewer near silhouettes of the front side too. One-sided
+                // meshes (every Cornell scene's) pay for none of it.
+                let turn = m.two_sided
+                    && !matches!(*self.shaders[prim.shader as usize], Shader::Glass { .. })
+                    && geometric.dot(od) * geometric.dot(n) > 0.0;
+                if turn {
                     to_world(-n)
                 } else {
                     to_world(n)

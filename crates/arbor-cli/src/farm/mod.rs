@@ -200,6 +200,24 @@ fn parse_jobs(text: &str) -> Vec<RecordedJob> {
         .collect()
 }
 
+/// The tasks of our render arrays that `queue` still holds, as pairs of
+/// the task index (the array task id plus the offset its job was submitted
+/// with) and the queue entry, in the order of `jobs` (oldest first).
+pub fn render_tasks<'q>(
+    jobs: &[RecordedJob],
+    queue: &'q [QueueEntry],
+) -> Vec<(u32, &'q QueueEntry)> {
+    jobs.iter()
+        .filter(|j| j.kind == "render")
+        .flat_map(|j| {
+            queue
+                .iter()
+                .filter(move |e| e.job == j.id)
+                .filter_map(move |e| Some((e.task? + j.offset, e)))
+        })
+        .collect()
+}
+
 /// The render tasks `todo` (ascending task indices) as array jobs: pairs
 /// of an offset and the array task ids (`task index - offset`), each array
 /// holding the indices of one window `[k max, (k + 1) max)`, so that every

@@ -17,8 +17,8 @@ use arbor_accel::AccelKind;
 use clap::Args;
 
 use super::{
-    array_batches, index_list, max_array_size, parts_dir, recorded_jobs, squeue, Manifest,
-    PartState,
+    array_batches, index_list, max_array_size, parts_dir, recorded_jobs, render_tasks, squeue,
+    Manifest, PartState,
 };
 use crate::InputError;
 
@@ -117,16 +117,9 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    // Task indices: an array's task id plus the offset its job was
-    // submitted with.
-    let offset_of = |job: &str| {
-        jobs.iter()
-            .find(|j| j.kind == "render" && j.id == job)
-            .map_or(0, |j| j.offset)
-    };
-    let active: HashSet<u32> = active_tasks
-        .iter()
-        .filter_map(|e| Some(e.task? + offset_of(&e.job)))
+    let active: HashSet<u32> = render_tasks(&jobs, &queue)
+        .into_iter()
+        .map(|(index, _)| index)
         .collect();
 
     let n = manifest.tiles;

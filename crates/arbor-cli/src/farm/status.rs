@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use super::{index_list, recorded_jobs, squeue, Manifest, PartState};
+use super::{index_list, recorded_jobs, render_tasks, squeue, Manifest, PartState};
 use crate::InputError;
 
 /// Arguments of `arbor farm status`.
@@ -36,23 +36,17 @@ pub fn run(args: StatusArgs) -> anyhow::Result<()> {
         .ok_or_else(|| InputError(format!("{}: not a farm manifest", path.display())))?;
     let jobs = recorded_jobs(&output);
     let queue = squeue();
-    // State of each array index among our render jobs, newest job last so
+    // State of each task index among our render jobs, newest job last so
     // that it wins.
     let mut tasks: HashMap<u32, String> = HashMap::new();
     let mut merge_state = None;
     if let Some(queue) = &queue {
-        for job in &jobs {
+        for (index, e) in render_tasks(&jobs, queue) {
+            tasks.insert(index, e.state.clone());
+        }
+        for job in jobs.iter().filter(|j| j.kind == "merge") {
             for e in queue.iter().filter(|e| e.job == job.id) {
-                match (job.kind.as_str(), e.task) {
-                    ("render", Some(t)) => {
-                        tasks.insert(t + job.offset, e.state.clone());
-                    }
-                    ("merge", _) => {
-                        merge_state =
-                            Some(format!("merge job {}: {} ({})", job.id, e.state, e.reason))
-                    }
-                    _ => {}
-                }
+                merge_state = Some(format!("merge job {}: {} ({})", job.id, e.state, e.reason));
             }
         }
     }
