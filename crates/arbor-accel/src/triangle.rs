@@ -133,7 +133,7 @@ pub fn intersect_triangle_sheared(
     } else {
         edge_functions_f64(ray, s, p0, p1, p2)?
     };
-    hit_from_weights(ray, s, p0, p1, p2, u, v, w)
+    hit_from_weights(ray, s, p0, p1, p2, || (u, v, w))
 }
 
 /// The end of [`intersect_triangle_sheared`] once the `f32` edge functions
@@ -153,24 +153,25 @@ pub(crate) fn hit_from_certain_edges(
     v: f32,
     w: f32,
 ) -> Option<TriangleHit> {
-    let det = u + v + w;
-    let (u, v, w) = (f64::from(u / det), f64::from(v / det), f64::from(w / det));
-    hit_from_weights(ray, s, p0, p1, p2, u, v, w)
+    hit_from_weights(ray, s, p0, p1, p2, || {
+        let det = u + v + w;
+        (f64::from(u / det), f64::from(v / det), f64::from(w / det))
+    })
 }
 
-/// The hit at normalised edge weights `u, v, w` (of `p0, p1, p2`): its
-/// distance in `f64`, checked against the ray's interval.
+/// The hit at the normalised edge weights `weights()` (of `p0, p1, p2`):
+/// its distance in `f64`, checked against the ray's interval. The weights
+/// are asked for only when needed (a hit, or the fallback distance below):
+/// most candidates of a closest-hit traversal fail the interval check, and
+/// normalising costs three divisions.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn hit_from_weights(
     ray: &Ray,
     s: &RayShear,
     p0: Vec3,
     p1: Vec3,
     p2: Vec3,
-    u: f64,
-    v: f64,
-    w: f64,
+    weights: impl Fn() -> (f64, f64, f64),
 ) -> Option<TriangleHit> {
     // The distance from the plane equation in f64: well conditioned unless
     // the ray grazes the plane, and exact in the common case of an
@@ -204,7 +205,10 @@ fn hit_from_weights(
     let lo = q0.min(q1).min(q2);
     let hi = q0.max(q1).max(q2);
     let margin = (o.abs() + (d * t).abs()) * f64::from(2.0f32.powi(-30));
+    let mut known = None;
     if !(point.cmpge(lo - margin).all() && point.cmple(hi + margin).all()) {
+        let (u, v, w) = weights();
+        known = Some((u, v, w));
         let (k, oz) = (s.kz, o[s.kz]);
         t = (u * (q0[k] - oz) + v * (q1[k] - oz) + w * (q2[k] - oz)) / d[k];
     }
@@ -230,6 +234,7 @@ fn hit_from_weights(
         ..*ray
     };
     Aabb::from_points([p0, p1, p2]).intersect(&widened, ray.inv_dir())?;
+    let (_, v, w) = known.unwrap_or_else(weights);
     Some(TriangleHit {
         t,
         u: v as f32,
