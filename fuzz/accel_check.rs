@@ -3,7 +3,9 @@
 //! (`crates/arbor-accel/tests/fuzz_regressions.rs`), so that a replay
 //! decodes and checks an input exactly as the fuzzer did.
 
-use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
+use arbor_accel::{
+    Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleBvh, TriangleMesh, Vec3,
+};
 
 /// Reads f32s from the bytes, mapping some byte patterns to the special
 /// values fuzzing should meet often.
@@ -59,6 +61,9 @@ pub fn check(data: &[u8]) -> usize {
         .iter()
         .map(|&k| Accel::build(k, &mesh))
         .collect();
+    // The wide BVH that owns its triangles and tests four at a time (what
+    // `arbor trace` uses).
+    let packed = TriangleBvh::build(&mesh, &TriangleBvh::params());
     let mut checked = 0;
     for r in floats(rays).chunks_exact(8) {
         let ray = Ray::new(
@@ -77,6 +82,19 @@ pub fn check(data: &[u8]) -> usize {
             assert_eq!(closest(a, &mesh, &ray), expected, "{kind} {ray:?}");
             assert_eq!(a.occluded(&ray, &mut NoCounters, test), occluded, "{kind}");
         }
+        // Of tied triangles it keeps the first offered: the same distance,
+        // on a triangle that the scalar test hits there.
+        let got = packed.closest(&ray, &mut NoCounters);
+        assert_eq!(
+            got.map(|h| h.hit.t),
+            expected.map(|e| e.0),
+            "packed {ray:?}"
+        );
+        if let Some(h) = got {
+            let own = mesh.intersect(h.prim as usize, &ray).map(|x| x.t);
+            assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
+        }
+        assert_eq!(packed.occluded(&ray, &mut NoCounters), occluded, "packed");
         checked += 1;
     }
     checked

@@ -75,6 +75,9 @@ pub(crate) struct EdgeVerdict {
     u: [f32; LANES],
     v: [f32; LANES],
     w: [f32; LANES],
+    /// The lanes' `s` (largest L1 norm of a relative vertex), bit for bit
+    /// the scalar test's for every decided lane.
+    scale: [f32; LANES],
     /// Lanes certainly missed (the scalar test would return `None`).
     miss: u32,
     /// Lanes whose edge functions certainly put the ray inside: finish with
@@ -162,6 +165,7 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
         u: u.to_array(),
         v: v.to_array(),
         w: w.to_array(),
+        scale: scale.to_array(),
         miss: decided & mixed,
         inside: decided & !mixed,
     }
@@ -186,7 +190,8 @@ impl EdgeVerdict {
     ) -> Option<TriangleHit> {
         let [p0, p1, p2] = tris.triangle(k);
         if self.inside & (1 << k) != 0 {
-            hit_from_certain_edges(ray, s, p0, p1, p2, self.u[k], self.v[k], self.w[k])
+            let edges = [self.u[k], self.v[k], self.w[k]];
+            hit_from_certain_edges(ray, s, p0, p1, p2, edges, self.scale[k])
         } else {
             intersect_triangle_sheared(ray, s, p0, p1, p2)
         }
