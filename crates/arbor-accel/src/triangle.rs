@@ -282,7 +282,21 @@ fn hit_from_weights(
         tmax: widen_up(ray.tmax),
         ..*ray
     };
-    Aabb::from_points([p0, p1, p2]).intersect(&widened, ray.inv_dir())?;
+    let (enter, _) = Aabb::from_points([p0, p1, p2]).intersect(&widened, ray.inv_dir())?;
+    // A hit is never reported before the box's entry allows: where `t`
+    // fell short of it (beyond the widening), as in a ray starting a
+    // subnormal distance from a triangle next to a vertex at 1e30, where
+    // `t` came out as 0 for an entry at 4e-40, the entry is the distance.
+    // Otherwise the answer would depend on the order of the tests: with
+    // `tmax` already shrunk to `t` by another triangle, the box check fails
+    // and the hit vanishes, while tested first it stands (brute force and
+    // `bvh-sah` disagreed on such a tie). With it, the answer depends on
+    // `tmax` only through `t <= tmax`, and a structure's culling at
+    // `widen_up(tmax)` never drops a reportable hit.
+    let t = if enter > widen_up(t) { enter } else { t };
+    if t > ray.tmax {
+        return None;
+    }
     let (_, v, w) = known.unwrap_or_else(weights);
     Some(TriangleHit {
         t,

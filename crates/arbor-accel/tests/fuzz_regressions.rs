@@ -92,6 +92,46 @@ fn subnormal_offset_from_an_edge() {
     }
 }
 
+/// `fuzz/artifacts/accel/crash-0977a2f7afe98010a968db9bf5d387d633e63bbc`:
+/// a ray from the origin, a triangle whose box starts a subnormal distance
+/// along it (next to a vertex at 1e30, whose plane distance cancels to
+/// `t = 0`), and a second triangle really hit at `t = 0`. The first hit used
+/// to be reported at `t = 0`, before its box's entry: tested first (brute
+/// force) it stood and won the tie by index, tested after the second (whose
+/// hit shrinks `tmax` to 0) its box check failed, and `bvh-sah` answered the
+/// other triangle. A hit is now reported no earlier than its box's entry, so
+/// it stands for every `tmax` from its distance up.
+#[test]
+fn hit_before_its_box_entry() {
+    let mesh = TriangleMesh::new(
+        vec![
+            Vec3::new(1e30, 7.078125, 263.07813),
+            Vec3::new(-348.0, 1.469368e-39, 1.469368e-39),
+            Vec3::new(-1.0, 0.0, 100.0),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 256.0),
+            Vec3::new(-512.0, -512.0, -512.0),
+        ],
+        vec![[0, 1, 2], [3, 4, 5]],
+    );
+    let ray = Ray::new(Vec3::ZERO, Vec3::new(256.0, 3.796875, 3.796875), 0.0, 1.0);
+    let first = mesh.intersect(0, &ray).expect("the box is entered");
+    assert!(first.t > 0.0, "{first:?}");
+    let at_its_distance = Ray {
+        tmax: first.t,
+        ..ray
+    };
+    assert_eq!(mesh.intersect(0, &at_its_distance), Some(first));
+    let second = mesh.intersect(1, &ray).expect("hit at the origin");
+    assert_eq!(second.t, 0.0);
+    let expected = closest(&Accel::build(AccelKind::List, &mesh), &mesh, &ray);
+    assert_eq!(expected, Some((0.0, 1)));
+    for &kind in AccelKind::ALL {
+        let a = Accel::build(kind, &mesh);
+        assert_eq!(closest(&a, &mesh, &ray), expected, "{kind}");
+    }
+}
+
 /// Every input kept in `fuzz/artifacts/accel/` answers like brute force.
 /// Two of them have rays whose direction components are subnormal
 /// (`MIN_POSITIVE / 8`): their reciprocals overflowed to infinity, which put
