@@ -17,7 +17,9 @@
 use glam::Vec3;
 
 use super::{BvhParams, WideBvh};
-use crate::triangle_lanes::{edge_stage, Tri4, LANES};
+#[cfg(target_arch = "x86_64")]
+use crate::triangle_lanes::pair;
+use crate::triangle_lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
 use crate::util::prefetch;
 use crate::{
     intersect_triangle_sheared, AccelStats, Accelerator, Counters, Ray, RayShear, TriangleHit,
@@ -179,26 +181,75 @@ impl TriangleBvh {
         mut on_hit: impl FnMut(u32, TriangleHit, &mut Ray) -> bool,
     ) -> bool {
         let packets = &self.packets[first..first + count.div_ceil(LANES)];
-        for (i, packet) in packets.iter().enumerate() {
+        let mut i = 0;
+        while i < packets.len() {
             let lanes = (count - i * LANES).min(LANES);
-            for _ in 0..lanes {
-                counters.test();
-            }
-            let verdict = edge_stage(ray, shear, packet, lanes);
-            let mut todo = verdict.candidates(lanes);
-            while todo != 0 {
-                let k = todo.trailing_zeros() as usize;
-                todo &= todo - 1;
-                if let Some(hit) = verdict.finish(k, ray, shear, packet) {
-                    if on_hit(packet.ids[k], hit, ray) {
-                        return true;
-                    }
+            // Two packets in one AVX2 pass when the leaf has them (the edge
+            // stage does not depend on `tmax`, so computing the second
+            // verdict before the first packet's hits changes nothing).
+            #[cfg(target_arch = "x86_64")]
+            if i + 1 < packets.len() && super::lanes::has_avx2() {
+                let second = (count - (i + 1) * LANES).min(LANES);
+                let pair = [&packets[i], &packets[i + 1]];
+                // SAFETY: the CPU has AVX2.
+                let [v0, v1] = unsafe { pair::edge_stage_pair(ray, shear, pair, second) };
+                if finish(&v0, pair[0], lanes, ray, shear, counters, &mut on_hit)
+                    || finish(&v1, pair[1], second, ray, shear, counters, &mut on_hit)
+                {
+                    return true;
                 }
+                i += 2;
+                continue;
             }
+            let verdict = edge_stage(ray, shear, &packets[i], lanes);
+            if finish(
+                &verdict,
+                &packets[i],
+                lanes,
+                ray,
+                shear,
+                counters,
+                &mut on_hit,
+            ) {
+                return true;
+            }
+            i += 1;
         }
         false
     }
+}
 
+/// The candidates of one packet (the `verdict` of its first `lanes`
+/// triangles), in lane order, through the full test; stops and returns
+/// `true` as soon as `on_hit` does. A function rather than a closure so that
+/// it can be forced inline into the traversal.
+#[inline(always)]
+fn finish<C: Counters>(
+    verdict: &EdgeVerdict,
+    packet: &Tri4,
+    lanes: usize,
+    ray: &mut Ray,
+    shear: &RayShear,
+    counters: &mut C,
+    on_hit: &mut impl FnMut(u32, TriangleHit, &mut Ray) -> bool,
+) -> bool {
+    for _ in 0..lanes {
+        counters.test();
+    }
+    let mut todo = verdict.candidates(lanes);
+    while todo != 0 {
+        let k = todo.trailing_zeros() as usize;
+        todo &= todo - 1;
+        if let Some(hit) = verdict.finish(k, ray, shear, packet) {
+            if on_hit(packet.ids[k], hit, ray) {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+impl TriangleBvh {
     /// Size and shape; the memory includes the triangle copies.
     pub fn stats(&self) -> AccelStats {
         let mut stats = self.bvh.stats();
