@@ -180,7 +180,15 @@ pub(crate) fn hit_from_certain_edges(
 /// share it). The computed `T` is off from the exact one by at most
 /// `6.1 2^-24 A + B Z (1 + 2^-22)`, with `A = sum |u_i z_i|`,
 /// `Z = sum |z_i|` and `B` the edge functions' error bound `2^-18 s^2 C`
-/// (see `triangle_lanes.rs`: never below the test's own `2^-18 m s`): each
+/// with `C = 1 + 2^-20`, never below the test's own `2^-18 m s` (`m` the
+/// largest sheared coordinate): the shear divides by the dominant
+/// component, so |sx|, |sy| <= 1 + 2^-23 (one rounding of the reciprocal,
+/// one of the product), hence |p_kx - sx p_kz| is at most
+/// (|p_kx| + |p_kz|) (1 + 2^-22) after its roundings, while the computed L1
+/// sum is at least the exact one times (1 - 2^-23): `m <= s (1 + 2^-21) <=
+/// fl(s C)` (subnormal sums and differences are exact, and overflow makes
+/// `s` infinite), and rounding is monotonic; unit test in
+/// `triangle_lanes.rs`. Each
 /// `z_i` carries three roundings (difference, reciprocal, product), the
 /// products and sums three more, and each exact edge function is within `B`
 /// of `u_i`. `E = (2^-21 A + B Z) (1 + 2^-10)` covers that and the
