@@ -380,13 +380,17 @@ impl WideBvh {
         // (child, count, entry distance), as in the node's slots.
         let mut stack = Stack::<(u32, u32, f32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
+        // The culling distance, recomputed only when a leaf may have
+        // shrunk `tmax`.
+        let mut cull = widen_up(ray.tmax);
         loop {
             counters.node();
             if count > 0 {
                 leaf(child as usize, count as usize, &mut ray, counters);
+                cull = widen_up(ray.tmax);
             } else {
                 let n = &self.nodes[child as usize];
-                let (tnear, bits) = lanes.hit::<NAN_SAFE>(n, widen_up(ray.tmax));
+                let (tnear, bits) = lanes.hit::<NAN_SAFE>(n, cull);
                 if bits.is_power_of_two() {
                     // One child entered (the common case deep in the tree):
                     // go there without touching the stack.
@@ -417,7 +421,7 @@ impl WideBvh {
                 let Some((c, k, tenter)) = stack.pop() else {
                     return;
                 };
-                if tenter <= widen_up(ray.tmax) {
+                if tenter <= cull {
                     (child, count) = (c, k);
                     break;
                 }
