@@ -83,7 +83,10 @@ impl RayShear {
 /// triangle's box (cancellation next to a huge vertex), from the barycentric
 /// combination of the vertices' distances. A hit also has to pass the
 /// conservative slab test ([`Aabb::intersect`]) against the triangle's own
-/// box, which no true hit fails. All of this matters to acceleration
+/// box, which no true hit fails, and is never reported before that box's
+/// entry, so that it depends on `tmax` only through `t <= tmax`. A plane
+/// that certainly lies behind the origin is rejected in `f32` first, when
+/// `tmin >= 0`. All of this matters to acceleration
 /// structures, which can only promise to offer a primitive where it really
 /// is. Degenerate (zero-area) triangles and zero directions never hit.
 #[inline]
