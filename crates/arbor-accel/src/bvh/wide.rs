@@ -398,6 +398,25 @@ impl WideBvh {
                     (child, count) = (n.child[lane], n.count[lane]);
                     continue;
                 }
+                let rest = bits & bits.wrapping_sub(1);
+                if rest.is_power_of_two() {
+                    // Two children entered: go to the nearer and push the
+                    // other, without sorting or popping. On a tie the later
+                    // lane goes first, as the sorted pushes below order it.
+                    let (a, b) = (
+                        bits.trailing_zeros() as usize,
+                        rest.trailing_zeros() as usize,
+                    );
+                    let (near, far) = if tnear[b] <= tnear[a] { (b, a) } else { (a, b) };
+                    if n.count[far] == 0 {
+                        prefetch(&self.nodes[n.child[far] as usize]);
+                    } else {
+                        prefetch_leaf(n.child[far] as usize);
+                    }
+                    stack.push((n.child[far], n.count[far], tnear[far]));
+                    (child, count) = (n.child[near], n.count[near]);
+                    continue;
+                }
                 if bits != 0 {
                     // Push the entered children farthest first, so the
                     // nearest ends on top: insertion sort of at most eight
