@@ -476,6 +476,12 @@ impl WideBvh {
             } else {
                 let n = &self.nodes[child as usize];
                 let (_, mut bits) = lanes.hit::<NAN_SAFE>(n, wide);
+                if bits.is_power_of_two() {
+                    // One child entered: go there without the stack.
+                    let lane = bits.trailing_zeros() as usize;
+                    (child, count) = (n.child[lane], n.count[lane]);
+                    continue;
+                }
                 // Any order will do: the first blocker ends the query.
                 while bits != 0 {
                     let lane = bits.trailing_zeros() as usize;
