@@ -80,8 +80,13 @@ impl TriangleBvh {
             packet_of.push(packets.len() as u32);
             let ids = &slots[first as usize..(first + count) as usize];
             for ids in ids.chunks(LANES) {
-                let tris: Vec<[Vec3; 3]> = ids.iter().map(|&p| mesh.triangle(p as usize)).collect();
-                packets.push(Tri4::new(&tris, ids));
+                // A fixed buffer: one allocation per packet was a quarter of
+                // a million for a million triangles.
+                let mut tris = [[Vec3::ZERO; 3]; LANES];
+                for (t, &p) in tris.iter_mut().zip(ids) {
+                    *t = mesh.triangle(p as usize);
+                }
+                packets.push(Tri4::new(&tris[..ids.len()], ids));
             }
         }
         let unbounded: Vec<(u32, [Vec3; 3])> = bvh
