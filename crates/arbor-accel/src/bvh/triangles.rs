@@ -135,8 +135,8 @@ impl TriangleBvh {
             counters,
             #[inline(always)]
             |first, count, ray, counters| {
-                let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
-                self.test_leaf(first, count, ray, &shear, counters, |prim, hit, ray| {
+                let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
+                self.test_leaf(first, count, ray, shear, counters, |prim, hit, ray| {
                     keep(prim, hit, ray);
                     false
                 });
@@ -163,9 +163,9 @@ impl TriangleBvh {
             counters,
             #[inline(always)]
             |first, count, ray, counters| {
-                let shear = *shear.get_or_insert_with(|| RayShear::new(ray));
+                let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
                 let mut ray = *ray;
-                self.test_leaf(first, count, &mut ray, &shear, counters, |_, _, _| true)
+                self.test_leaf(first, count, &mut ray, shear, counters, |_, _, _| true)
             },
             |first| prefetch(&self.packets[first]),
         )
