@@ -191,10 +191,9 @@ pub(crate) fn hit_from_certain_edges(
 /// sum is at least the exact one times (1 - 2^-23): `m <= s (1 + 2^-21) <=
 /// fl(s C)` (subnormal sums and differences are exact, and overflow makes
 /// `s` infinite), and rounding is monotonic; unit test in
-/// `triangle_lanes.rs`. Each
-/// `z_i` carries three roundings (difference, reciprocal, product), the
-/// products and sums three more, and each exact edge function is within `B`
-/// of `u_i`. `E = (2^-21 A + B Z) (1 + 2^-10)` covers that and the
+/// `triangle_lanes.rs`. Each `z_i` carries three roundings (difference,
+/// reciprocal, product), the products and sums three more, and each exact
+/// edge function is within `B` of `u_i`. `E = (2^-21 A + B Z) (1 + 2^-10)` covers that and the
 /// roundings of `E` itself; `T` beyond `E` on the side opposite to `D`
 /// means `t < 0` exactly. A ray whose origin lies on the plane never gets
 /// past the bound, so no hit at `t = 0` is lost.

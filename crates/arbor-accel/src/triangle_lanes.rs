@@ -85,6 +85,28 @@ pub(crate) struct EdgeVerdict {
     inside: u32,
 }
 
+/// Calls `$stage::<KX, KY, KZ>(args)` with the ray shear's axis
+/// permutation as constants (shared by the four- and eight-lane stages).
+macro_rules! by_permutation {
+    ($s:expr, $stage:ident($($arg:expr),*)) => {
+        match ($s.kx, $s.ky) {
+            (1, 2) => $stage::<1, 2, 0>($($arg),*),
+            (2, 1) => $stage::<2, 1, 0>($($arg),*),
+            (2, 0) => $stage::<2, 0, 1>($($arg),*),
+            (0, 2) => $stage::<0, 2, 1>($($arg),*),
+            (0, 1) => $stage::<0, 1, 2>($($arg),*),
+            _ => $stage::<1, 0, 2>($($arg),*),
+        }
+    };
+}
+
+/// Lanes (bit `i` for lane `i`) whose three edge functions, given by their
+/// sign bits, do not all share a sign.
+#[inline(always)]
+fn mixed_signs(nu: u32, nv: u32, nw: u32) -> u32 {
+    (nu | nv | nw) & !(nu & nv & nw)
+}
+
 /// The `f32` edge stage of the watertight test for the first `count`
 /// triangles of `tris`.
 #[inline(always)]
@@ -93,14 +115,7 @@ pub(crate) fn edge_stage(ray: &Ray, s: &RayShear, tris: &Tri4, count: usize) -> 
     // The axis permutation as constants: indexing lanes by a runtime axis
     // would spill them to memory. Within one ray the arm never changes, so
     // the branch costs nothing.
-    match (s.kx, s.ky) {
-        (1, 2) => stage::<1, 2, 0>(ray, s, tris, count),
-        (2, 1) => stage::<2, 1, 0>(ray, s, tris, count),
-        (2, 0) => stage::<2, 0, 1>(ray, s, tris, count),
-        (0, 2) => stage::<0, 2, 1>(ray, s, tris, count),
-        (0, 1) => stage::<0, 1, 2>(ray, s, tris, count),
-        _ => stage::<1, 0, 2>(ray, s, tris, count),
-    }
+    by_permutation!(s, stage(ray, s, tris, count))
 }
 
 /// [`edge_stage`] for the permutation `(KX, KY, KZ)` of the ray's shear.
@@ -155,7 +170,7 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
         v.is_negative_bitmask(),
         w.is_negative_bitmask(),
     );
-    let mixed = (nu | nv | nw) & !(nu & nv & nw);
+    let mixed = mixed_signs(nu, nv, nw);
     let valid = (1u32 << count) - 1;
     let decided = decided.bitmask() & valid;
     EdgeVerdict {
@@ -179,7 +194,7 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
 pub(crate) mod pair {
     use std::arch::x86_64::*;
 
-    use super::{EdgeVerdict, Tri4, LANES};
+    use super::{mixed_signs, EdgeVerdict, Tri4, LANES};
     use crate::{Ray, RayShear};
 
     /// Verdicts for `tris[0]` (all four lanes used) and the first `count`
@@ -200,14 +215,7 @@ pub(crate) mod pair {
         count: usize,
     ) -> [EdgeVerdict; 2] {
         debug_assert!((1..=LANES).contains(&count));
-        match (s.kx, s.ky) {
-            (1, 2) => stage::<1, 2, 0>(ray, s, tris, count),
-            (2, 1) => stage::<2, 1, 0>(ray, s, tris, count),
-            (2, 0) => stage::<2, 0, 1>(ray, s, tris, count),
-            (0, 2) => stage::<0, 2, 1>(ray, s, tris, count),
-            (0, 1) => stage::<0, 1, 2>(ray, s, tris, count),
-            _ => stage::<1, 0, 2>(ray, s, tris, count),
-        }
+        by_permutation!(s, stage(ray, s, tris, count))
     }
 
     /// # Safety
@@ -246,7 +254,7 @@ pub(crate) mod pair {
             _mm256_movemask_ps(v) as u32,
             _mm256_movemask_ps(w) as u32,
         );
-        let mixed = (nu | nv | nw) & !(nu & nv & nw);
+        let mixed = mixed_signs(nu, nv, nw);
         let decided = decided & (0xf | ((1u32 << count) - 1) << LANES);
         let mut rows = [[0.0f32; 8]; 4];
         _mm256_storeu_ps(rows[0].as_mut_ptr(), u);

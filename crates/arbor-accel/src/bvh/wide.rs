@@ -320,6 +320,17 @@ impl WideBvh {
         self.occluded_in::<Avx2, C, L, P>(ray, counters, leaf, prefetch_leaf)
     }
 
+    /// Starts loading child `lane` of `n`: its node, or through
+    /// `prefetch_leaf` its first primitives.
+    #[inline(always)]
+    fn prefetch_child(&self, n: &Node8, lane: usize, prefetch_leaf: &impl Fn(usize)) {
+        if n.count[lane] == 0 {
+            prefetch(&self.nodes[n.child[lane] as usize]);
+        } else {
+            prefetch_leaf(n.child[lane] as usize);
+        }
+    }
+
     /// The closest-hit traversal with the box lanes `B`, on the fast path
     /// when the ray allows it (see [`BoxLanes::hit`]).
     #[inline(always)]
@@ -408,11 +419,7 @@ impl WideBvh {
                         rest.trailing_zeros() as usize,
                     );
                     let (near, far) = if tnear[b] <= tnear[a] { (b, a) } else { (a, b) };
-                    if n.count[far] == 0 {
-                        prefetch(&self.nodes[n.child[far] as usize]);
-                    } else {
-                        prefetch_leaf(n.child[far] as usize);
-                    }
+                    self.prefetch_child(n, far, &prefetch_leaf);
                     stack.push((n.child[far], n.count[far], tnear[far]));
                     (child, count) = (n.child[near], n.count[near]);
                     continue;
@@ -426,11 +433,7 @@ impl WideBvh {
                     while b != 0 {
                         let lane = b.trailing_zeros() as usize;
                         b &= b - 1;
-                        if n.count[lane] == 0 {
-                            prefetch(&self.nodes[n.child[lane] as usize]);
-                        } else {
-                            prefetch_leaf(n.child[lane] as usize);
-                        }
+                        self.prefetch_child(n, lane, &prefetch_leaf);
                         stack.insert_sorted(base, (n.child[lane], n.count[lane], tnear[lane]));
                     }
                 }
@@ -486,11 +489,7 @@ impl WideBvh {
                 while bits != 0 {
                     let lane = bits.trailing_zeros() as usize;
                     bits &= bits - 1;
-                    if n.count[lane] == 0 {
-                        prefetch(&self.nodes[n.child[lane] as usize]);
-                    } else {
-                        prefetch_leaf(n.child[lane] as usize);
-                    }
+                    self.prefetch_child(n, lane, &prefetch_leaf);
                     stack.push((n.child[lane], n.count[lane]));
                 }
             }
