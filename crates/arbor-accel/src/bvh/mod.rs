@@ -118,7 +118,8 @@ pub struct BvhParams {
     /// for [`crate::TriangleBvh`], which tests four triangles for the price
     /// of one. Default 1 (one test per primitive).
     pub leaf_block: usize,
-    /// Bins per axis of the binned SAH builder (clamped to 2..=64). Default 16.
+    /// Bins per axis of the binned SAH builder, rounded up to 8, 16 or 32
+    /// (nodes of at most 256 primitives use 8). Default 16.
     pub bins: usize,
     /// PLOC's nearest-neighbour search radius in Morton order. Default 16.
     pub ploc_radius: usize,
