@@ -450,7 +450,9 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
     // costliest pass. The sample is fixed by index (chunks start at
     // multiples of 4), so it does not depend on the thread count.
     let stride = if n >= SAMPLE_FROM { 4 } else { 1 };
-    let fill = |mut acc: Bins<B>, chunk: &[Ref]| {
+    // Bins are filled in place: passed and returned by value, they were
+    // copied (a kilobyte or two) twice per node.
+    let fill = |acc: &mut Bins<B>, chunk: &[Ref]| {
         for r in chunk.iter().step_by(stride) {
             let k = binner.indices(r.centroid4());
             for (a, &i) in k.iter().enumerate() {
@@ -458,15 +460,20 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
                 acc.n[a][i] += 1;
             }
         }
-        acc
     };
-    let acc = if n > 2 * CHUNK {
-        refs.par_chunks(CHUNK)
-            .map(|c| fill(Bins::new(), c))
-            .reduce(Bins::new, |x, y| x.merge(&y))
+    let mut acc = Bins::new();
+    if n > 2 * CHUNK {
+        acc = refs
+            .par_chunks(CHUNK)
+            .map(|c| {
+                let mut part = Bins::new();
+                fill(&mut part, c);
+                part
+            })
+            .reduce(Bins::new, |x, y| x.merge(&y));
     } else {
-        fill(Bins::new(), refs)
-    };
+        fill(&mut acc, refs);
+    }
     let (ct, ci) = (params.traversal_cost, params.intersection_cost);
     let tests = |n: u32| leaf_tests(n, params);
     // Costs are compared unnormalised: multiplied through by A(node). The
