@@ -55,8 +55,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
     });
     let [o0, o1, o2] = &mut orders;
     let (tree, depth) = recurse_par(&data, [o0, o1, o2], 0, 0, params);
-    let mut nodes = Vec::with_capacity(tree.len());
-    tree.flatten_into(&mut nodes);
+    let nodes = tree.flatten();
     let order = orders[0].iter().map(|&i| refs[i as usize].id()).collect();
     (nodes, order, depth)
 }

@@ -40,8 +40,7 @@ pub(super) fn build<S: Splitter>(
 ) -> (Vec<BvhNode>, Vec<u32>, usize) {
     let bounds = bounds_of(refs);
     let (tree, depth) = recurse_par(s, refs, 0, 0, params, bounds);
-    let mut nodes = Vec::with_capacity(tree.len());
-    tree.flatten_into(&mut nodes);
+    let nodes = tree.flatten();
     let order = if refs.len() > 2 * CHUNK {
         refs.par_iter().map(Ref::id).collect()
     } else {
