@@ -571,6 +571,22 @@ mod tests {
     use super::*;
 
     #[test]
+    fn leaf_tests_is_a_ceiling_division_for_every_block() {
+        // The shift path (powers of two) and the division path must agree
+        // with `div_ceil`, including at the multiples and next to them.
+        for block in 0..=9 {
+            let params = BvhParams {
+                leaf_block: block,
+                ..BvhParams::default()
+            };
+            for n in (0..200).chain([u32::MAX - 1, u32::MAX]) {
+                let want = n.div_ceil(block.max(1) as u32) as f32;
+                assert_eq!(leaf_tests(n, &params), want, "n {n}, block {block}");
+            }
+        }
+    }
+
+    #[test]
     fn partition_moves_matches_first() {
         let mut v: Vec<u32> = (0..100).rev().collect();
         let k = partition(&mut v, |x| x % 3 == 0);
