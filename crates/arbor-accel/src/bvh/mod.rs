@@ -240,6 +240,22 @@ impl Bvh {
         &self.prims
     }
 
+    /// Every leaf as `(first, count)`, sorted by `first`: the depth-first
+    /// layout already lists them so (a left subtree holds the lower slots),
+    /// which is checked, not assumed.
+    pub(crate) fn leaves(&self) -> Vec<(u32, u32)> {
+        let mut leaves: Vec<(u32, u32)> = self
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| (n.offset, n.count))
+            .collect();
+        if !leaves.is_sorted() {
+            leaves.sort_unstable();
+        }
+        leaves
+    }
+
     /// The SAH cost `(Σ_interior A(n)·c_t + Σ_leaf A(l)·c_i·|l|) / A(root)`
     /// with surface areas `A`; `None` for an empty tree or a root without
     /// finite positive area.

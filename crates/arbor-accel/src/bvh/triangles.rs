@@ -17,7 +17,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{BvhParams, WideBvh};
+use super::{Bvh, BvhBuilder, BvhParams, WideBvh};
 #[cfg(target_arch = "x86_64")]
 use crate::triangle_lanes::pair;
 use crate::triangle_lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
@@ -123,9 +123,9 @@ impl TriangleBvh {
     /// Builds the wide BVH over `mesh` with `params` and packs each leaf's
     /// triangles. The mesh is not needed afterwards.
     pub fn build(mesh: &TriangleMesh, params: &BvhParams) -> Self {
-        let bvh = WideBvh::build(mesh, params);
-        let leaves = bvh.leaves();
-        let slots = bvh.prims();
+        let bin = Bvh::build(mesh, BvhBuilder::BinnedSah, params);
+        let leaves = bin.leaves();
+        let slots = bin.prim_indices();
         // Leaf `first` -> its first packet, in the order of `leaves`; the
         // last entry is the packet count.
         let mut packet_of = Vec::with_capacity(leaves.len() + 1);
@@ -133,7 +133,12 @@ impl TriangleBvh {
         for &(_, count) in &leaves {
             packet_of.push(packet_of[packet_of.len() - 1] + count.div_ceil(LANES as u32));
         }
-        let packets = pack_leaves(mesh, slots, &leaves, &packet_of);
+        // The collapse needs only the binary tree and the packing only its
+        // leaves, so they run side by side (the collapse is serial).
+        let (bvh, packets) = rayon::join(
+            || WideBvh::collapse(&bin),
+            || pack_leaves(mesh, slots, &leaves, &packet_of),
+        );
         let unbounded: Vec<(u32, [Vec3; 3])> = bvh
             .unbounded()
             .iter()

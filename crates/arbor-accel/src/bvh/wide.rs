@@ -59,14 +59,23 @@ pub struct WideBvh {
 impl WideBvh {
     /// Builds the binned-SAH binary tree with `params` and collapses it.
     pub fn build<P: Primitives + ?Sized>(prims: &P, params: &BvhParams) -> Self {
-        let bin = Bvh::build(prims, BvhBuilder::BinnedSah, params);
-        let sah_cost = bin.sah_cost(1.0, 1.0);
+        let mut bin = Bvh::build(prims, BvhBuilder::BinnedSah, params);
+        let mut wide = WideBvh::collapse(&bin);
+        wide.prims = std::mem::take(&mut bin.prims);
+        wide
+    }
+
+    /// The wide tree of the binary tree `bin`, whose leaves it keeps, but
+    /// without its primitive slots ([`WideBvh::prims`] is empty): for the
+    /// build above, and for a caller that stores the leaves' primitives its
+    /// own way.
+    pub(crate) fn collapse(bin: &Bvh) -> Self {
         let mut wide = WideBvh {
             nodes: Vec::new(),
-            prims: bin.prims,
-            unbounded: bin.unbounded,
+            prims: Vec::new(),
+            unbounded: bin.unbounded.clone(),
             max_depth: 0,
-            sah_cost,
+            sah_cost: bin.sah_cost(1.0, 1.0),
         };
         let bn = &bin.nodes;
         if bn.is_empty() {
@@ -186,31 +195,9 @@ impl Accelerator for WideBvh {
 }
 
 impl WideBvh {
-    /// The primitive slots, in leaf order: leaf `(first, count)` holds
-    /// `prims()[first..first + count]`.
-    pub(crate) fn prims(&self) -> &[u32] {
-        &self.prims
-    }
-
     /// Primitives without a finite box, which every ray must be offered.
     pub(crate) fn unbounded(&self) -> &[u32] {
         &self.unbounded
-    }
-
-    /// Every leaf as `(first, count)`, sorted by `first` (the binary tree's
-    /// primitive order, which keeps neighbours in space together).
-    pub(crate) fn leaves(&self) -> Vec<(u32, u32)> {
-        let mut leaves: Vec<(u32, u32)> = self
-            .nodes
-            .iter()
-            .flat_map(|n| n.child.iter().zip(&n.count))
-            .filter(|&(_, &count)| count > 0)
-            .map(|(&first, &count)| (first, count))
-            .collect();
-        // In parallel: a million triangles make a quarter of a million
-        // leaves.
-        leaves.par_sort_unstable();
-        leaves
     }
 
     /// Re-points every leaf: `first` becomes `f(first, count)`, for a caller
