@@ -242,6 +242,19 @@ impl WideBvh {
             unsafe { self.closest_avx2(ray, counters, leaf, prefetch_leaf) };
             return;
         }
+        self.closest_portable(ray, counters, leaf, prefetch_leaf);
+    }
+
+    /// [`WideBvh::closest_leaves`] without AVX2, out of line: inlined, its
+    /// stack (kilobytes) and set-up weighed on every call of the AVX2 path.
+    #[inline(never)]
+    #[cold]
+    fn closest_portable<C, L, P>(&self, ray: Ray, counters: &mut C, leaf: L, prefetch_leaf: P)
+    where
+        C: Counters,
+        L: FnMut(usize, usize, &mut Ray, &mut C),
+        P: Fn(usize),
+    {
         self.closest_in::<Portable, C, L, P>(ray, counters, leaf, prefetch_leaf);
     }
 
@@ -269,6 +282,25 @@ impl WideBvh {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.occluded_avx2(ray, counters, leaf, prefetch_leaf) };
         }
+        self.occluded_portable(ray, counters, leaf, prefetch_leaf)
+    }
+
+    /// [`WideBvh::occluded_leaves`] without AVX2, out of line (see
+    /// [`WideBvh::closest_portable`]).
+    #[inline(never)]
+    #[cold]
+    fn occluded_portable<C, L, P>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: L,
+        prefetch_leaf: P,
+    ) -> bool
+    where
+        C: Counters,
+        L: FnMut(usize, usize, &Ray, &mut C) -> bool,
+        P: Fn(usize),
+    {
         self.occluded_in::<Portable, C, L, P>(ray, counters, leaf, prefetch_leaf)
     }
 
