@@ -145,7 +145,7 @@ impl TriangleBvh {
             .map(|&p| (p, mesh.triangle(p as usize)))
             .collect();
         let len = slots.len() + unbounded.len();
-        let (bvh, _) = bvh.into_leaf_storage(|first, _| {
+        let bvh = bvh.into_leaf_storage(|first| {
             let i = leaves.partition_point(|&(f, _)| f < first);
             packet_of[i]
         });

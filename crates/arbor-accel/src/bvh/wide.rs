@@ -200,22 +200,19 @@ impl WideBvh {
         &self.unbounded
     }
 
-    /// Re-points every leaf: `first` becomes `f(first, count)`, for a caller
-    /// that stores the leaves' primitives its own way; the primitive slots
-    /// are handed over, as they no longer match the leaves.
-    pub(crate) fn into_leaf_storage(
-        mut self,
-        f: impl Fn(u32, u32) -> u32 + Sync,
-    ) -> (Self, Vec<u32>) {
+    /// Re-points every leaf of a tree from [`WideBvh::collapse`] (which has
+    /// no primitive slots): `first` becomes `f(first)`, for a caller that
+    /// stores the leaves' primitives its own way.
+    pub(crate) fn into_leaf_storage(mut self, f: impl Fn(u32) -> u32 + Sync) -> Self {
+        debug_assert!(self.prims.is_empty(), "the slots would no longer match");
         self.nodes.par_iter_mut().for_each(|n| {
             for i in 0..WIDTH {
                 if n.count[i] > 0 {
-                    n.child[i] = f(n.child[i], n.count[i]);
+                    n.child[i] = f(n.child[i]);
                 }
             }
         });
-        let prims = std::mem::take(&mut self.prims);
-        (self, prims)
+        self
     }
 
     /// Closest-hit traversal (the unbounded primitives are the caller's):
