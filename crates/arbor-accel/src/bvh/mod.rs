@@ -282,7 +282,7 @@ impl Bvh {
 
 /// A ray prepared for node tests in SIMD lanes.
 #[derive(Clone, Copy)]
-struct RayBox {
+pub(crate) struct RayBox {
     origin: Vec3A,
     inv_dir: Vec3A,
     tmin: f32,
@@ -290,23 +290,36 @@ struct RayBox {
 
 impl RayBox {
     fn new(ray: &Ray) -> Self {
+        RayBox::with_inv_dir(ray, ray.inv_dir())
+    }
+
+    /// `ray` with its `inv_dir`, already computed by the caller.
+    #[inline(always)]
+    pub(crate) fn with_inv_dir(ray: &Ray, inv_dir: Vec3) -> Self {
         RayBox {
             origin: ray.origin.into(),
-            inv_dir: ray.inv_dir().into(),
+            inv_dir: inv_dir.into(),
             tmin: ray.tmin,
         }
     }
 
     /// The entry distance into `node`'s box if the ray (clipped to
-    /// `[tmin, tmax]`) touches it. The same arithmetic, lane for lane, as
+    /// `[tmin, tmax]`) touches it (see [`RayBox::hit_box`]).
+    #[inline(always)]
+    fn hit(&self, node: &BvhNode, tmax: f32) -> Option<f32> {
+        self.hit_box(&node.aabb(), tmax)
+    }
+
+    /// The entry distance into `b` if the ray (clipped to `[tmin, tmax]`)
+    /// touches it. The same arithmetic, lane for lane, as
     /// [`Aabb::intersect`], so it inherits that test's conservative bound.
     /// Callers pass `tmax` widened by that bound, so that a box entered at
     /// the current closest hit (up to the rounding of the entry distance) is
     /// never culled.
     #[inline(always)]
-    fn hit(&self, node: &BvhNode, tmax: f32) -> Option<f32> {
-        let t0 = (Vec3A::from(node.min) - self.origin) * self.inv_dir;
-        let t1 = (Vec3A::from(node.max) - self.origin) * self.inv_dir;
+    pub(crate) fn hit_box(&self, b: &Aabb, tmax: f32) -> Option<f32> {
+        let t0 = (Vec3A::from(b.min) - self.origin) * self.inv_dir;
+        let t1 = (Vec3A::from(b.max) - self.origin) * self.inv_dir;
         let on_plane = t0.is_nan_mask() | t1.is_nan_mask();
         let near = Vec3A::select(on_plane, Vec3A::NEG_INFINITY, t0.min(t1));
         let far = Vec3A::select(on_plane, Vec3A::INFINITY, t0.max(t1));
