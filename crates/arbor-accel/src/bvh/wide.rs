@@ -22,6 +22,9 @@
 //!   dropped without touching its node.
 //! * **Early-out occlusion**: shadow rays skip the ordering and stop at the
 //!   first blocker.
+//! * **The root's box first**: a ray from outside that misses the whole
+//!   tree's box (most camera rays of a framed model) returns before the
+//!   lanes are set up ([`WideBvh::entered`]).
 //!
 //! Correctness is the binary tree's: the lane arithmetic (either
 //! implementation) is, operation for operation, that of
