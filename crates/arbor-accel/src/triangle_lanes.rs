@@ -20,7 +20,7 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::triangle::{hit_from_certain_edges, intersect_triangle_sheared};
+use crate::triangle::{certainly_hit_within, hit_from_certain_edges, intersect_triangle_sheared};
 use crate::Ray;
 use crate::{RayShear, TriangleHit};
 
@@ -327,6 +327,21 @@ impl EdgeVerdict {
         !self.miss & ((1u32 << count) - 1)
     }
 
+    /// Whether lane `k` (a candidate) is certainly hit inside the ray's
+    /// interval, without the full test's `f64` distance (see
+    /// [`certainly_hit_within`]); `false` leaves it to [`EdgeVerdict::finish`].
+    #[inline(always)]
+    pub(crate) fn certainly_blocks(&self, k: usize, ray: &Ray, s: &RayShear, tris: &Tri4) -> bool {
+        self.inside & (1 << k) != 0
+            && certainly_hit_within(
+                ray,
+                s,
+                tris.triangle(k),
+                [self.u[k], self.v[k], self.w[k]],
+                self.scale[k],
+            )
+    }
+
     /// The full test of lane `k` (a candidate) against `tri`: exactly what
     /// [`intersect_triangle_sheared`] answers for it.
     #[inline(always)]
@@ -438,6 +453,83 @@ mod tests {
             checked += 1;
         }
         assert!(checked > 100_000, "only {checked} cases checked");
+    }
+
+    /// A blocker certain without the `f64` distance is one the full test
+    /// reports inside the ray's interval: on ordinary and hostile
+    /// coordinates, with the interval's ends placed at, just beside and far
+    /// from the full test's distance (where the shortcut must hold back).
+    #[test]
+    fn certain_blockers_are_hits_of_the_full_test() {
+        let mut rng = Rng(11);
+        let (mut certain, mut near_ends_held_back) = (0, 0);
+        for _ in 0..150_000 {
+            let origin = rng.vec();
+            let dir = rng.vec();
+            let probe = Ray::new(origin, dir, 0.0, f32::INFINITY);
+            let tris: Vec<[Vec3; 3]> = (0..LANES)
+                .map(|_| {
+                    if rng.next() % 4 != 0 {
+                        // Around a point ahead on the ray, sizes from tiny
+                        // to large against the distance.
+                        let base = origin + dir * ((rng.next() % 1000) as f32 / 100.0);
+                        let size = [1e-4, 1e-2, 1.0, 10.0][(rng.next() % 4) as usize];
+                        [0, 1, 2].map(|_| {
+                            base + Vec3::new(
+                                (rng.next() % 2001) as f32 / 1000.0 - 1.0,
+                                (rng.next() % 2001) as f32 / 1000.0 - 1.0,
+                                (rng.next() % 2001) as f32 / 1000.0 - 1.0,
+                            ) * size
+                        })
+                    } else {
+                        [rng.vec(), rng.vec(), rng.vec()]
+                    }
+                })
+                .collect();
+            let ids: Vec<u32> = (0..LANES as u32).collect();
+            let packet = Tri4::new(&tris, &ids);
+            for (k, &[a, b, c]) in tris.iter().enumerate() {
+                let full = intersect_triangle_sheared(&probe, &RayShear::new(&probe), a, b, c);
+                // Intervals: open, and with an end at, just beside and
+                // around the full test's distance.
+                let mut intervals = vec![(0.0, f32::INFINITY), (0.5, 3.0)];
+                if let Some(h) = full {
+                    for f in [
+                        1.0,
+                        1.0 + 1e-7,
+                        1.0 - 1e-7,
+                        1.0 + 1e-5,
+                        1.0 - 1e-5,
+                        2.0,
+                        0.5,
+                    ] {
+                        intervals.push((0.0, h.t * f));
+                        intervals.push((h.t * f, f32::INFINITY));
+                    }
+                }
+                for (tmin, tmax) in intervals {
+                    let ray = Ray::new(origin, dir, tmin, tmax);
+                    let s = RayShear::new(&ray);
+                    let verdict = edge_stage(&ray, &s, &packet, LANES);
+                    if verdict.candidates(LANES) & (1 << k) == 0 {
+                        continue;
+                    }
+                    let blocks = verdict.certainly_blocks(k, &ray, &s, &packet);
+                    let hit = intersect_triangle_sheared(&ray, &s, a, b, c);
+                    if blocks {
+                        let h = hit.unwrap_or_else(|| panic!("{ray:?} {:?}: no hit", [a, b, c]));
+                        assert!(h.t >= tmin && h.t <= tmax, "{ray:?}: {h:?}");
+                        certain += 1;
+                    } else if let Some(h) = hit {
+                        if h.t == tmax || h.t == tmin {
+                            near_ends_held_back += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(certain > 40_000, "only {certain} certain blockers");
+        assert!(near_ends_held_back > 1_000, "{near_ends_held_back}");
     }
 
     /// The two-packet AVX2 stage gives, bit for bit, the verdicts of the

@@ -186,7 +186,7 @@ impl TriangleBvh {
             #[inline(always)]
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
-                self.test_leaf(first, count, ray, shear, counters, |prim, hit, ray| {
+                self.test_leaf::<false, C>(first, count, ray, shear, counters, |prim, hit, ray| {
                     keep(prim, hit, ray);
                     false
                 });
@@ -215,7 +215,7 @@ impl TriangleBvh {
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
                 let mut ray = *ray;
-                self.test_leaf(first, count, &mut ray, shear, counters, |_, _, _| true)
+                self.test_leaf::<true, C>(first, count, &mut ray, shear, counters, |_, _, _| true)
             },
             |first| prefetch(&self.packets[first]),
         )
@@ -226,7 +226,7 @@ impl TriangleBvh {
     /// for each one hit (it may shrink `ray.tmax` for the ones after it).
     /// Stops and returns `true` as soon as `on_hit` does.
     #[inline(always)]
-    fn test_leaf<C: Counters>(
+    fn test_leaf<const ANY_HIT: bool, C: Counters>(
         &self,
         first: usize,
         count: usize,
@@ -248,8 +248,8 @@ impl TriangleBvh {
                 let pair = [&packets[i], &packets[i + 1]];
                 // SAFETY: the CPU has AVX2.
                 let [v0, v1] = unsafe { pair::edge_stage_pair(ray, shear, pair, second) };
-                if finish(&v0, pair[0], lanes, ray, shear, counters, &mut on_hit)
-                    || finish(&v1, pair[1], second, ray, shear, counters, &mut on_hit)
+                if finish::<ANY_HIT, C>(&v0, pair[0], lanes, ray, shear, counters, &mut on_hit)
+                    || finish::<ANY_HIT, C>(&v1, pair[1], second, ray, shear, counters, &mut on_hit)
                 {
                     return true;
                 }
@@ -257,7 +257,7 @@ impl TriangleBvh {
                 continue;
             }
             let verdict = edge_stage(ray, shear, &packets[i], lanes);
-            if finish(
+            if finish::<ANY_HIT, C>(
                 &verdict,
                 &packets[i],
                 lanes,
@@ -279,7 +279,7 @@ impl TriangleBvh {
 /// `true` as soon as `on_hit` does. A function rather than a closure so that
 /// it can be forced inline into the traversal.
 #[inline(always)]
-fn finish<C: Counters>(
+fn finish<const ANY_HIT: bool, C: Counters>(
     verdict: &EdgeVerdict,
     packet: &Tri4,
     lanes: usize,
@@ -295,6 +295,11 @@ fn finish<C: Counters>(
     while todo != 0 {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
+        // An any-hit query stops at a blocker certain without the `f64`
+        // distance (its caller would stop at any hit `on_hit` is given).
+        if ANY_HIT && verdict.certainly_blocks(k, ray, shear, packet) {
+            return true;
+        }
         if let Some(hit) = verdict.finish(k, ray, shear, packet) {
             if on_hit(packet.ids[k], hit, ray) {
                 return true;
