@@ -204,6 +204,10 @@ fn certainly_behind(ray: &Ray, s: &RayShear, p: [Vec3; 3], uvw: [f32; 3], scale:
     n.toward < -n.error_bounds(scale).0 && n.far_from_underflow(scale)
 }
 
+/// 2^-100: the smallest magnitude [`Numerator::far_from_underflow`] and
+/// [`certainly_hit_within`] accept as far from underflow.
+const TINY: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0;
+
 /// The distance's numerator `T` (see [`certainly_behind`]) and its parts.
 struct Numerator {
     /// The vertices' coordinates along the dominant axis minus the origin's.
@@ -244,7 +248,6 @@ impl Numerator {
     /// terms were subnormal, and `certainly_behind` misjudged the sign.)
     #[inline(always)]
     fn far_from_underflow(&self, scale: f32) -> bool {
-        const TINY: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0; // 2^-100
         let normal = |i: usize| {
             self.diff[i] == 0.0 || (self.z[i].abs() >= TINY && self.terms[i].abs() >= TINY)
         };
@@ -299,7 +302,6 @@ pub(crate) fn certainly_hit_within(
     const SLACK: f32 = 1.0 / 1024.0;
     const QUOTIENT: f32 = 1.0 / 1_048_576.0;
     const MARGIN: f32 = 1.0 / 1_048_576.0;
-    const TINY: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0; // 2^-100
     let n = Numerator::new(ray, s, p, uvw);
     // Most candidates of an any-hit query that are no blockers lie behind
     // (the triangle a shadow ray leaves from): out before the rest.
