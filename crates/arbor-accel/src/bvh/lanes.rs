@@ -188,6 +188,23 @@ impl BoxLanes for Portable {
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx2::{has_avx2, Avx2};
 
+#[cfg(test)]
+thread_local! {
+    /// Set while [`without_avx2`] runs its closure.
+    static AVX2_HIDDEN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with [`has_avx2`] answering no on this thread: every traversal
+/// and leaf test in it takes its portable path (unit tests only; the
+/// property tests, on an AVX2 machine, only see the AVX2 paths).
+#[cfg(test)]
+pub(crate) fn without_avx2<R>(f: impl FnOnce() -> R) -> R {
+    AVX2_HIDDEN.set(true);
+    let result = f();
+    AVX2_HIDDEN.set(false);
+    result
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -199,9 +216,15 @@ mod avx2 {
     use crate::Ray;
 
     /// Whether this CPU runs the AVX2 path (checked once, then cached by
-    /// the standard library).
+    /// the standard library). In this crate's unit tests,
+    /// [`super::without_avx2`] can say no on the current thread, so that
+    /// the portable paths run on an AVX2 machine too.
     #[inline(always)]
     pub(crate) fn has_avx2() -> bool {
+        #[cfg(test)]
+        if super::AVX2_HIDDEN.get() {
+            return false;
+        }
         std::arch::is_x86_feature_detected!("avx2")
     }
 

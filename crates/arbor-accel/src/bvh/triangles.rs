@@ -332,6 +332,7 @@ impl TriangleBvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::lanes::without_avx2;
     use crate::{Accel, AccelKind};
 
     /// A deterministic bumpy mesh with shared edges, plus a few hostile
@@ -439,6 +440,13 @@ mod tests {
         let mut hits = 0;
         for ray in rays {
             let got = fast.closest(ray, &mut crate::NoCounters);
+            // The portable traversal and leaf test (on a machine without
+            // AVX2, the only ones) answer alike, hit for hit.
+            let portable = without_avx2(|| {
+                let closest = fast.closest(ray, &mut crate::NoCounters);
+                (closest, fast.occluded(ray, &mut crate::NoCounters))
+            });
+            assert_eq!(portable, (got, got.is_some()), "{ray:?}");
             let (want, any) = brute(mesh, ray);
             assert_eq!(got.map(|h| h.hit.t.to_bits()), want.map(|w| w.1.to_bits()));
             // The same triangle as the generic structure with the same test
