@@ -224,7 +224,10 @@ impl TriangleBvh {
     /// Runs the leaf `(first, count)`'s triangles through the watertight
     /// test, four at a time, in leaf order, and calls `on_hit(id, hit, ray)`
     /// for each one hit (it may shrink `ray.tmax` for the ones after it).
-    /// Stops and returns `true` as soon as `on_hit` does.
+    /// Stops and returns `true` as soon as `on_hit` does, or, with
+    /// `ANY_HIT`, at the first triangle certainly hit inside the interval
+    /// (before `on_hit` and without the exact distance: see
+    /// `EdgeVerdict::certainly_blocks`).
     #[inline(always)]
     fn test_leaf<const ANY_HIT: bool, C: Counters>(
         &self,
