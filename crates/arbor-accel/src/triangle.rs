@@ -199,9 +199,33 @@ pub(crate) fn hit_from_certain_edges(
 /// past the bound, so no hit at `t = 0` is lost.
 #[inline(always)]
 fn certainly_behind(ray: &Ray, s: &RayShear, p: [Vec3; 3], uvw: [f32; 3], scale: f32) -> bool {
+    Numerator::new(ray, s, p, uvw).behind(scale)
+}
+
+/// What `f32` decides, for an any-hit query, about a triangle whose edge
+/// functions `u, v, w` have certain signs, none of them opposite:
+/// `Some(false)` when `tmin >= 0` and its plane certainly lies behind the
+/// origin (the check [`hit_from_certain_edges`] makes first), `Some(true)`
+/// when it is certainly hit inside the interval ([`certainly_hit_within`]),
+/// `None` when only the full test can tell. Both checks share one
+/// numerator: a shadow ray's own triangle, which lies behind it, used to
+/// have it computed twice.
+#[inline(always)]
+pub(crate) fn certain_any_hit(
+    ray: &Ray,
+    s: &RayShear,
+    p: [Vec3; 3],
+    uvw: [f32; 3],
+    scale: f32,
+) -> Option<bool> {
     let n = Numerator::new(ray, s, p, uvw);
-    // `T` signed as `D`: negative beyond the bound means behind.
-    n.toward < -n.error_bounds(scale).0 && n.far_from_underflow(scale)
+    if ray.tmin >= 0.0 && n.behind(scale) {
+        Some(false)
+    } else if certainly_hit_within(&n, ray, uvw, scale) {
+        Some(true)
+    } else {
+        None
+    }
 }
 
 /// 2^-100: the smallest magnitude [`Numerator::far_from_underflow`] and
@@ -254,6 +278,15 @@ impl Numerator {
         scale >= 1.0 / 1_099_511_627_776.0 && normal(0) && normal(1) && normal(2)
     }
 
+    /// Whether `T` lies beyond its error bound on the side opposite to `D`
+    /// and far from underflow: the plane certainly meets the ray's line
+    /// behind the origin (see [`certainly_behind`]).
+    #[inline(always)]
+    fn behind(&self, scale: f32) -> bool {
+        // `T` signed as `D`: negative beyond the bound means behind.
+        self.toward < -self.error_bounds(scale).0 && self.far_from_underflow(scale)
+    }
+
     /// `E`, the bound of `T`'s error, and `B`, the edge functions'.
     #[inline(always)]
     fn error_bounds(&self, scale: f32) -> (f32, f32) {
@@ -292,17 +325,10 @@ impl Numerator {
 /// ([`Numerator::far_from_underflow`]), and wherever a NaN fails a
 /// comparison, it leaves the decision to the full test.
 #[inline(always)]
-pub(crate) fn certainly_hit_within(
-    ray: &Ray,
-    s: &RayShear,
-    p: [Vec3; 3],
-    uvw: [f32; 3],
-    scale: f32,
-) -> bool {
+fn certainly_hit_within(n: &Numerator, ray: &Ray, uvw: [f32; 3], scale: f32) -> bool {
     const SLACK: f32 = 1.0 / 1024.0;
     const QUOTIENT: f32 = 1.0 / 1_048_576.0;
     const MARGIN: f32 = 1.0 / 1_048_576.0;
-    let n = Numerator::new(ray, s, p, uvw);
     // Most candidates of an any-hit query that are no blockers lie behind
     // (the triangle a shadow ray leaves from): out before the rest.
     // (NaN goes on, and fails a comparison below.)

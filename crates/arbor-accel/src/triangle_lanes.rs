@@ -20,7 +20,7 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::triangle::{certainly_hit_within, hit_from_certain_edges, intersect_triangle_sheared};
+use crate::triangle::{certain_any_hit, hit_from_certain_edges, intersect_triangle_sheared};
 use crate::Ray;
 use crate::{RayShear, TriangleHit};
 
@@ -327,19 +327,24 @@ impl EdgeVerdict {
         !self.miss & ((1u32 << count) - 1)
     }
 
-    /// Whether lane `k` (a candidate) is certainly hit inside the ray's
-    /// interval, without the full test's `f64` distance (see
-    /// [`certainly_hit_within`]); `false` leaves it to [`EdgeVerdict::finish`].
+    /// For an any-hit query, what lane `k` (a candidate) is without the
+    /// full test's `f64` distance (see [`certain_any_hit`]): certainly hit
+    /// inside the ray's interval (`Some(true)`), certainly missed behind the
+    /// origin (`Some(false)`, as [`EdgeVerdict::finish`] would find), or
+    /// left to [`EdgeVerdict::finish`] (`None`).
     #[inline(always)]
-    pub(crate) fn certainly_blocks(&self, k: usize, ray: &Ray, s: &RayShear, tris: &Tri4) -> bool {
-        self.inside & (1 << k) != 0
-            && certainly_hit_within(
-                ray,
-                s,
-                tris.triangle(k),
-                [self.u[k], self.v[k], self.w[k]],
-                self.scale[k],
-            )
+    pub(crate) fn any_hit_certainty(
+        &self,
+        k: usize,
+        ray: &Ray,
+        s: &RayShear,
+        tris: &Tri4,
+    ) -> Option<bool> {
+        if self.inside & (1 << k) == 0 {
+            return None;
+        }
+        let edges = [self.u[k], self.v[k], self.w[k]];
+        certain_any_hit(ray, s, tris.triangle(k), edges, self.scale[k])
     }
 
     /// The full test of lane `k` (a candidate) against `tri`: exactly what
@@ -514,7 +519,7 @@ mod tests {
                     if verdict.candidates(LANES) & (1 << k) == 0 {
                         continue;
                     }
-                    let blocks = verdict.certainly_blocks(k, &ray, &s, &packet);
+                    let blocks = verdict.any_hit_certainty(k, &ray, &s, &packet) == Some(true);
                     let hit = intersect_triangle_sheared(&ray, &s, a, b, c);
                     if blocks {
                         let h = hit.unwrap_or_else(|| panic!("{ray:?} {:?}: no hit", [a, b, c]));

@@ -227,7 +227,7 @@ impl TriangleBvh {
     /// Stops and returns `true` as soon as `on_hit` does, or, with
     /// `ANY_HIT`, at the first triangle certainly hit inside the interval
     /// (before `on_hit` and without the exact distance: see
-    /// `EdgeVerdict::certainly_blocks`).
+    /// `EdgeVerdict::any_hit_certainty`).
     #[inline(always)]
     fn test_leaf<const ANY_HIT: bool, C: Counters>(
         &self,
@@ -299,9 +299,15 @@ fn finish<const ANY_HIT: bool, C: Counters>(
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
         // An any-hit query stops at a blocker certain without the `f64`
-        // distance (its caller would stop at any hit `on_hit` is given).
-        if ANY_HIT && verdict.certainly_blocks(k, ray, shear, packet) {
-            return true;
+        // distance (its caller would stop at any hit `on_hit` is given), and
+        // passes over a triangle certainly behind the origin (the full test
+        // would turn it away first thing).
+        if ANY_HIT {
+            match verdict.any_hit_certainty(k, ray, shear, packet) {
+                Some(true) => return true,
+                Some(false) => continue,
+                None => {}
+            }
         }
         if let Some(hit) = verdict.finish(k, ray, shear, packet) {
             if on_hit(packet.ids[k], hit, ray) {
