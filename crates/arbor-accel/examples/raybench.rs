@@ -3,7 +3,7 @@
 //! building the whole CLI.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B]
+//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B] [--bins N]
 //! ```
 
 use std::time::Instant;
@@ -85,6 +85,7 @@ fn main() {
             let mut params = TriangleBvh::params();
             params.max_leaf_size = opt("--leaf", params.max_leaf_size);
             params.leaf_block = opt("--block", params.leaf_block);
+            params.bins = opt("--bins", params.bins);
             params.traversal_cost =
                 opt("--ct-percent", (params.traversal_cost * 100.0) as usize) as f32 / 100.0;
             bench_triangle_bvh(&mesh, &rays, &pool, &params, repeat, occluded);
