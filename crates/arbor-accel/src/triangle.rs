@@ -76,8 +76,10 @@ impl RayShear {
 /// exactly antisymmetric in them. Beyond the paper's exact-zero fallback, an
 /// edge function whose magnitude is within its `f32` error bound
 /// (`2^-18 m s`, with `s` the largest L1 distance of a vertex from the
-/// origin and `m` the largest sheared vertex coordinate) is recomputed in
-/// `f64`, so a reported hit really lies on the
+/// origin and `m` the largest sheared vertex coordinate), or whose bound is
+/// not a normal `f32` (`m s < 2^-108`: a triangle within about 5e-17 of
+/// the origin), is
+/// recomputed in `f64`, so a reported hit really lies on the
 /// triangle (to about `2^-48 s`), not merely near it; the distance `t` comes
 /// from the triangle's plane in `f64`, or, when that point falls outside the
 /// triangle's box (cancellation next to a huge vertex), from the barycentric
@@ -116,7 +118,12 @@ pub fn intersect_triangle_sheared(
     // vertex relative to the origin and `m` the largest sheared coordinate,
     // each sheared coordinate is off by at most 5u s (u = 2^-24), so an edge
     // function is off by at most 4 m (5u s) + 4u m^2 <= 28u m s. Testing
-    // against 64u m s = 2^-18 m s leaves a factor two of margin.
+    // against 64u m s = 2^-18 m s leaves a factor two of margin. That
+    // analysis counts relative roundings only; it holds while the bound is
+    // a normal number (then every subnormal rounding's absolute error,
+    // 2^-150, is far below it), so a subnormal or zero bound (`m s <
+    // 2^-108`: triangles within about 5e-17 of the origin) leaves the signs
+    // to `f64`.
     let scale = a
         .abs()
         .element_sum()
@@ -131,7 +138,7 @@ pub fn intersect_triangle_sheared(
         .max(cy.abs());
     let bound = m * scale * (1.0 / 262_144.0);
     let smallest = u.abs().min(v.abs()).min(w.abs());
-    let (u, v, w) = if smallest > bound {
+    let (u, v, w) = if smallest > bound && bound >= f32::MIN_POSITIVE {
         // Signs are certain.
         if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
             return None;
@@ -686,6 +693,25 @@ fn round_up(v: DVec3) -> Vec3 {
     Vec3::new(f(v.x), f(v.y), f(v.z))
 }
 
+/// The case of the test `an_underflowing_bound_leaves_the_signs_to_f64`:
+/// a ray from the origin, a triangle within about 1e-22 of it that the ray
+/// passes just outside edge `bc` of, and the neighbour across that edge
+/// (its apex mirrored through the edge's midpoint), which the ray crosses.
+#[cfg(test)]
+pub(crate) fn underflow_case() -> (Ray, [Vec3; 3], [Vec3; 3]) {
+    let v = |b: [u32; 3]| Vec3::from_array(b.map(f32::from_bits));
+    let a = v([0x1a78_3dd3, 0x1b4d_c987, 0x1a6c_8f1f]);
+    let b = v([0x1aad_fc63, 0x9ad4_c7e1, 0x1b3e_89bb]);
+    let c = v([0x9b61_983c, 0x9a19_d5a4, 0x1aae_3043]);
+    let dir = Vec3::new(
+        f32::from_bits(0xbe64_fc4c),
+        f32::from_bits(0xbf08_4478),
+        1.0,
+    );
+    let ray = Ray::new(Vec3::ZERO, dir, 0.0, f32::INFINITY);
+    (ray, [a, b, c], [c, b, b + c - a])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -847,6 +873,39 @@ mod tests {
     /// Rays whose direction has a huge component (1e20 to 1e35) meeting a
     /// small triangle just ahead of their origin, at `t` between about
     /// 1e-40 and 1e-25: every one is a hit near the triangle's centre.
+    /// A triangle within about 1e-22 of the ray's origin, where the edge
+    /// functions' bound `2^-18 m s` underflows to zero: the ray passes
+    /// outside edge `bc` by far less than the sheared coordinates' rounding
+    /// (the exact edge function is -3.9e-52, in exact arithmetic on the
+    /// `f32` inputs and shear), while the `f32` one came out as +1.4e-45
+    /// (found by a search with exact rational arithmetic). A zero bound once
+    /// counted as certain, and the test reported a hit just off the
+    /// triangle; the neighbour across `bc`, which the ray really crosses,
+    /// was missed. Both go to the `f64` stage now.
+    #[test]
+    fn an_underflowing_bound_leaves_the_signs_to_f64() {
+        let (r, [a, b, c], neighbour) = underflow_case();
+        let s = RayShear::new(&r);
+        assert_eq!((s.kx, s.ky, s.kz), (0, 1, 2));
+        // The `f32` edge function of `bc` and the bound, as the test computes
+        // them: nonzero, and a bound of zero.
+        let sheared = |p: Vec3| (p.x - s.sx * p.z, p.y - s.sy * p.z);
+        let ((ax, ay), (bx, by), (cx, cy)) = (sheared(a), sheared(b), sheared(c));
+        assert_eq!(cx * by - cy * bx, f32::from_bits(1));
+        let m = [ax, ay, bx, by, cx, cy]
+            .map(f32::abs)
+            .into_iter()
+            .fold(0.0, f32::max);
+        let scale = [a, b, c]
+            .map(|p| p.abs().element_sum())
+            .into_iter()
+            .fold(0.0, f32::max);
+        assert_eq!(m * scale * (1.0 / 262_144.0), 0.0);
+        assert_eq!(intersect_triangle(&r, a, b, c), None);
+        let [p0, p1, p2] = neighbour;
+        assert!(intersect_triangle(&r, p0, p1, p2).is_some());
+    }
+
     /// `certainly_behind` once declared such triangles behind the origin:
     /// the distance's terms were subnormal, their rounding errors absolute,
     /// and its relative bound too small (7,723 of 1.4 million hits lost).

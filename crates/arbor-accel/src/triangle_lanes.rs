@@ -160,11 +160,14 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
         .max(cx.abs())
         .max(cy.abs());
     let bound = m * scale * Vec4::splat(1.0 / 262_144.0);
-    // Certain signs: every magnitude above the bound (a NaN compares false,
-    // so a NaN lane is undecided, as in the scalar test). Then no edge
-    // function is zero, and the signs are mixed unless all three sign bits
-    // agree.
-    let decided = u.abs().cmpgt(bound) & v.abs().cmpgt(bound) & w.abs().cmpgt(bound);
+    // Certain signs: every magnitude above the bound, and the bound a
+    // normal number (a NaN compares false, so a NaN lane is undecided, as
+    // in the scalar test). Then no edge function is zero, and the signs are
+    // mixed unless all three sign bits agree.
+    let decided = u.abs().cmpgt(bound)
+        & v.abs().cmpgt(bound)
+        & w.abs().cmpgt(bound)
+        & bound.cmpge(Vec4::splat(f32::MIN_POSITIVE));
     let (nu, nv, nw) = (
         u.is_negative_bitmask(),
         v.is_negative_bitmask(),
@@ -244,9 +247,10 @@ pub(crate) mod pair {
             m = _mm256_max_ps(m, abs(c));
         }
         let bound = _mm256_mul_ps(_mm256_mul_ps(m, scale), _mm256_set1_ps(1.0 / 262_144.0));
+        let normal = _mm256_cmp_ps::<_CMP_GE_OQ>(bound, _mm256_set1_ps(f32::MIN_POSITIVE));
         let decided = _mm256_and_ps(
             _mm256_and_ps(above(u, bound), above(v, bound)),
-            above(w, bound),
+            _mm256_and_ps(above(w, bound), normal),
         );
         let decided = _mm256_movemask_ps(decided) as u32;
         let (nu, nv, nw) = (
@@ -598,6 +602,39 @@ mod tests {
             }
         }
         assert!(candidates > 10_000, "only {candidates} candidates");
+    }
+
+    /// The lanes leave an underflowing bound's signs to the full test, as
+    /// the scalar test does: the triangle the ray passes just outside of
+    /// is missed and its neighbour hit, in the four-lane stage and in the
+    /// pair stage.
+    #[test]
+    fn lanes_leave_an_underflowing_bound_to_the_full_test() {
+        let (ray, outside, neighbour) = crate::triangle::underflow_case();
+        let s = RayShear::new(&ray);
+        let packet = Tri4::new(&[outside, neighbour], &[0, 1]);
+        let answers = |v: &EdgeVerdict| {
+            [0, 1].map(|k| {
+                (v.candidates(2) & (1 << k) != 0)
+                    .then(|| v.finish(k, &ray, &s, &packet))
+                    .flatten()
+            })
+        };
+        let [missed, hit] = answers(&edge_stage(&ray, &s, &packet, 2));
+        assert_eq!(missed, None);
+        let [p0, p1, p2] = neighbour;
+        assert!(same(hit, intersect_triangle_sheared(&ray, &s, p0, p1, p2)));
+        assert!(hit.is_some());
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: checked above that the CPU has AVX2.
+            let [first, second] = unsafe { pair::edge_stage_pair(&ray, &s, [&packet, &packet], 2) };
+            for verdict in [first, second] {
+                let [missed, again] = answers(&verdict);
+                assert_eq!(missed, None);
+                assert!(same(again, hit));
+            }
+        }
     }
 
     /// Every lane answers bit for bit what the one-triangle test answers,
