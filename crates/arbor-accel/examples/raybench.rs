@@ -3,14 +3,14 @@
 //! building the whole CLI.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B] [--bins N]
+//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B] [--bins N] [--packets]
 //! ```
 
 use std::time::Instant;
 
 use arbor_accel::{
     intersect_triangle_sheared, Accel, AccelKind, AccelParams, Accelerator, BvhParams, NoCounters,
-    Ray, RayShear, TriangleBvh, TriangleMesh, Vec3,
+    Ray, RayShear, TriangleBvh, TriangleMesh, Vec3, PACKET,
 };
 use rayon::prelude::*;
 
@@ -88,7 +88,8 @@ fn main() {
             params.bins = opt("--bins", params.bins);
             params.traversal_cost =
                 opt("--ct-percent", (params.traversal_cost * 100.0) as usize) as f32 / 100.0;
-            bench_triangle_bvh(&mesh, &rays, &pool, &params, repeat, occluded);
+            let packets = args.iter().any(|a| a == "--packets");
+            bench_triangle_bvh(&mesh, &rays, &pool, &params, repeat, occluded, packets);
             continue;
         }
         let kind: AccelKind = kind.parse().unwrap();
@@ -152,6 +153,7 @@ fn bench_triangle_bvh(
     params: &BvhParams,
     repeat: usize,
     occluded: bool,
+    packets: bool,
 ) {
     let start = Instant::now();
     let bvh = pool.install(|| TriangleBvh::build(mesh, params));
@@ -160,20 +162,41 @@ fn bench_triangle_bvh(
     let mut sum = 0u64;
     for _ in 0..repeat {
         let start = Instant::now();
+        let answer = |h: Option<arbor_accel::MeshHit>| {
+            h.map_or(
+                u64::from(u32::MAX) ^ u64::from(f32::INFINITY.to_bits()),
+                |h| u64::from(h.prim) ^ u64::from(h.hit.t.to_bits()),
+            )
+        };
         sum = pool.install(|| {
-            rays.par_iter()
-                .with_min_len(256)
-                .map(|ray| {
-                    if occluded {
-                        u64::from(bvh.occluded(ray, &mut NoCounters))
-                    } else {
-                        bvh.closest(ray, &mut NoCounters).map_or(
-                            u64::from(u32::MAX) ^ u64::from(f32::INFINITY.to_bits()),
-                            |h| u64::from(h.prim) ^ u64::from(h.hit.t.to_bits()),
-                        )
-                    }
-                })
-                .sum()
+            if packets && !occluded {
+                rays.par_chunks(PACKET)
+                    .with_min_len(256 / PACKET)
+                    .map(|chunk| {
+                        let packet = <&[Ray; PACKET]>::try_from(chunk)
+                            .ok()
+                            .and_then(|rays| bvh.closest_packet(rays, &mut NoCounters));
+                        match packet {
+                            Some(hits) => hits.into_iter().map(answer).sum::<u64>(),
+                            None => chunk
+                                .iter()
+                                .map(|ray| answer(bvh.closest(ray, &mut NoCounters)))
+                                .sum(),
+                        }
+                    })
+                    .sum()
+            } else {
+                rays.par_iter()
+                    .with_min_len(256)
+                    .map(|ray| {
+                        if occluded {
+                            u64::from(bvh.occluded(ray, &mut NoCounters))
+                        } else {
+                            answer(bvh.closest(ray, &mut NoCounters))
+                        }
+                    })
+                    .sum()
+            }
         });
         times.push(start.elapsed().as_secs_f64() * 1e3);
     }

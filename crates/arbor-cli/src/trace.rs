@@ -10,8 +10,8 @@ use std::time::Instant;
 use anyhow::Context;
 use arbor::mesh::load_mesh_file;
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, Accelerator, NoCounters, Ray, RayShear,
-    TriangleBvh, TriangleMesh, Vec3,
+    intersect_triangle_sheared, Accel, AccelKind, Accelerator, MeshHit, NoCounters, Ray, RayShear,
+    TriangleBvh, TriangleMesh, Vec3, PACKET,
 };
 use clap::Args;
 use rayon::prelude::*;
@@ -216,23 +216,43 @@ impl MeshTracer {
 
 /// The closest hit of every ray, in parallel on the current pool.
 fn trace_closest(tracer: &MeshTracer, rays: &[Ray], out: &mut [Hit]) {
-    out.par_iter_mut()
-        .zip(rays.par_iter())
-        .with_min_len(RAYS_PER_TASK)
-        .for_each(|(slot, ray)| {
-            *slot = match tracer {
-                MeshTracer::Triangles(bvh) => {
-                    bvh.closest(ray, &mut NoCounters)
-                        .map_or(Hit::NONE, |h| Hit {
-                            t: h.hit.t,
-                            prim: h.prim,
-                            u: h.hit.u,
-                            v: h.hit.v,
-                        })
+    match tracer {
+        // Consecutive rays in eights: `closest_packet` traces coherent ones
+        // (neighbouring camera rays) together and the others one by one.
+        MeshTracer::Triangles(bvh) => out
+            .par_chunks_mut(PACKET)
+            .zip(rays.par_chunks(PACKET))
+            .with_min_len(RAYS_PER_TASK / PACKET)
+            .for_each(|(slots, rays)| {
+                let packet = <&[Ray; PACKET]>::try_from(rays)
+                    .ok()
+                    .and_then(|rays| bvh.closest_packet(rays, &mut NoCounters));
+                if let Some(hits) = packet {
+                    for (slot, hit) in slots.iter_mut().zip(hits) {
+                        *slot = mesh_hit(hit);
+                    }
+                } else {
+                    for (slot, ray) in slots.iter_mut().zip(rays) {
+                        *slot = mesh_hit(bvh.closest(ray, &mut NoCounters));
+                    }
                 }
-                MeshTracer::Generic(accel, tris) => closest(accel, tris, ray),
-            }
-        });
+            }),
+        MeshTracer::Generic(accel, tris) => out
+            .par_iter_mut()
+            .zip(rays.par_iter())
+            .with_min_len(RAYS_PER_TASK)
+            .for_each(|(slot, ray)| *slot = closest(accel, tris, ray)),
+    }
+}
+
+/// A [`TriangleBvh`] answer as written to the hit file.
+fn mesh_hit(hit: Option<MeshHit>) -> Hit {
+    hit.map_or(Hit::NONE, |h| Hit {
+        t: h.hit.t,
+        prim: h.prim,
+        u: h.hit.u,
+        v: h.hit.v,
+    })
 }
 
 /// The closest hit of one ray. The shear depends only on the direction, so it

@@ -62,7 +62,7 @@ impl Node8 {
 
     /// Bit `i` set when slot `i` holds a child.
     #[inline(always)]
-    fn valid(&self) -> u32 {
+    pub(crate) fn valid(&self) -> u32 {
         let mut bits = 0;
         for (i, &c) in self.child.iter().enumerate() {
             bits |= u32::from(c != EMPTY) << i;

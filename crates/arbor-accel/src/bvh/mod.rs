@@ -7,12 +7,14 @@
 //! primitive index array.
 
 mod lanes;
+mod packet;
 mod ploc;
 mod sweep;
 mod topdown;
 mod triangles;
 mod wide;
 
+pub use packet::PACKET;
 pub use triangles::{MeshHit, TriangleBvh};
 pub use wide::WideBvh;
 

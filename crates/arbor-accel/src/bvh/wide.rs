@@ -53,13 +53,13 @@ const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
 /// binary [`Bvh`].
 #[derive(Clone, Debug, Default)]
 pub struct WideBvh {
-    nodes: Vec<Node8>,
+    pub(super) nodes: Vec<Node8>,
     prims: Vec<u32>,
     unbounded: Vec<u32>,
     /// The root's box, the union of all others: a ray that misses it (most
     /// primary rays of a framed model: 70-75 % of those of `versus.py`)
     /// is turned away before the traversal's set-up.
-    bounds: Aabb,
+    pub(super) bounds: Aabb,
     max_depth: usize,
     sah_cost: Option<f64>,
 }

@@ -1,0 +1,311 @@
+//! Ray packets: eight coherent rays (neighbouring camera rays) through the
+//! wide BVH together, one ray per AVX2 lane.
+//!
+//! A single ray tests a node's eight child boxes in the eight lanes of a
+//! register; a packet tests one child box against its eight rays in the
+//! lanes instead, so a node costs the packet eight box tests where eight
+//! rays would pay eight, and the traversal's control (ordering the entered
+//! children, the stack, the loop) is paid once for all eight. Camera rays
+//! through neighbouring pixels enter mostly the same nodes, so the packet
+//! shares those costs. Above all, a packet that misses the root's box (most
+//! camera rays of a framed model do) is turned away by one test instead of
+//! eight.
+//!
+//! Identical answers, ray by ray: each lane runs, operation for operation,
+//! the single ray's fast-path slab test (`lanes.rs`: near and far planes
+//! chosen by the direction's signs, the same subtractions, products,
+//! `max`/`min` order and exit widening), so a ray enters exactly the boxes
+//! it would enter alone for the same culling distance; and each leaf is
+//! tested per ray by the caller's single-ray leaf test. Only the order of
+//! the leaves differs (the packet goes nearest-first by its rays' smallest
+//! entry distance), which can change which of several triangles hit at
+//! exactly the same distance is reported, as the order of offering does
+//! between any two structures. Culling stays conservative: a popped entry
+//! drops a ray only when even the packet's smallest entry distance lies
+//! beyond that ray's closest hit.
+//!
+//! A packet must be coherent in the sense the fast path needs: finite
+//! origins and directions, no zero direction component, and every
+//! direction in the same octant (so that the near planes are the same rows
+//! for all lanes). The traversal checks it first and declines other
+//! groups, which callers then trace ray by ray.
+
+// Packets are traced with AVX2 only; elsewhere callers trace ray by ray.
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_imports))]
+
+use std::mem::MaybeUninit;
+
+use super::lanes::Node8;
+use super::wide::WideBvh;
+use super::STACK_SIZE;
+use crate::util::widen_up;
+use crate::{Counters, Ray};
+
+/// Rays in a packet: one per AVX2 lane.
+pub const PACKET: usize = 8;
+
+/// A pending subtree: node or leaf (`child`, `count` as in a node's
+/// slots), the rays that entered it (bit `i` for lane `i`), and a lower
+/// bound of their entry distances.
+#[derive(Clone, Copy)]
+struct Pending {
+    child: u32,
+    count: u32,
+    rays: u32,
+    dist: f32,
+}
+
+/// Entries: each visited node pushes at most seven siblings, one node per
+/// level (as for single rays).
+const PACKET_STACK: usize = 7 * STACK_SIZE;
+
+impl WideBvh {
+    /// Closest-hit traversal of a packet: calls `leaf(first, count, lane,
+    /// counters)` for every leaf that ray `lane` enters (and maybe some it
+    /// would have culled: `leaf` must reject hits beyond its ray's `tmax`,
+    /// as the single-ray leaf tests do), and takes the returned value as
+    /// that ray's new `tmax`. Returns `false`, having traced nothing, when
+    /// the rays are not coherent enough for a packet (see the module
+    /// documentation).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    pub(crate) unsafe fn closest_packet_avx2<C, L>(
+        &self,
+        rays: &[Ray; PACKET],
+        counters: &mut C,
+        mut leaf: L,
+    ) -> bool
+    where
+        C: Counters,
+        L: FnMut(usize, usize, usize, &mut C) -> f32,
+    {
+        use avx2::{hmin_where, Lanes};
+        use std::arch::x86_64::*;
+        let Some(lanes) = Lanes::new(rays) else {
+            return false;
+        };
+        if self.nodes.is_empty() {
+            return true;
+        }
+        let mut cull = rays.each_ref().map(|r| widen_up(r.tmax));
+
+        // The root's box first: a packet that misses it (the rays around a
+        // framed model) costs one test.
+        let b = self.bounds;
+        let root = [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z];
+        let (_, inside) = lanes.slab(&root, _mm256_loadu_ps(cull.as_ptr()));
+        let entered = _mm256_movemask_ps(inside) as u32;
+        if entered == 0 {
+            return true;
+        }
+
+        // Left uninitialised: zeroing it cost more than tracing (as for
+        // single rays, see `wide.rs`).
+        let mut stack = [const { MaybeUninit::<Pending>::uninit() }; PACKET_STACK];
+        let mut depth = 0;
+        let mut at = Pending {
+            child: 0,
+            count: 0,
+            rays: entered,
+            dist: 0.0,
+        };
+        loop {
+            counters.node();
+            if at.count > 0 {
+                let mut todo = at.rays;
+                while todo != 0 {
+                    let lane = todo.trailing_zeros() as usize;
+                    todo &= todo - 1;
+                    let tmax = leaf(at.child as usize, at.count as usize, lane, counters);
+                    cull[lane] = widen_up(tmax);
+                }
+            } else {
+                let n: &Node8 = &self.nodes[at.child as usize];
+                let cull_lanes = _mm256_loadu_ps(cull.as_ptr());
+                // The children entered, nearest first (insertion into a
+                // list of at most eight).
+                let mut hits = [at; 8];
+                let mut found = 0;
+                let mut slots = n.valid();
+                while slots != 0 {
+                    let slot = slots.trailing_zeros() as usize;
+                    slots &= slots - 1;
+                    let planes = [0, 1, 2, 3, 4, 5].map(|r| n.bounds[r][slot]);
+                    let (near, inside) = lanes.slab(&planes, cull_lanes);
+                    let mask = _mm256_movemask_ps(inside) as u32 & at.rays;
+                    if mask == 0 {
+                        continue;
+                    }
+                    // A lower bound of the entering rays' entry distances
+                    // (lanes entering outside `at.rays` only lower it).
+                    let dist = hmin_where(near, inside);
+                    let mut j = found;
+                    while j > 0 && hits[j - 1].dist > dist {
+                        hits[j] = hits[j - 1];
+                        j -= 1;
+                    }
+                    hits[j] = Pending {
+                        child: n.child[slot],
+                        count: n.count[slot],
+                        rays: mask,
+                        dist,
+                    };
+                    found += 1;
+                }
+                if found > 0 {
+                    // Farthest pushed first, the nearest visited now.
+                    for &h in hits[1..found].iter().rev() {
+                        stack[depth] = MaybeUninit::new(h);
+                        depth += 1;
+                    }
+                    at = hits[0];
+                    continue;
+                }
+            }
+            // The nearest pending subtree that some ray can still reach.
+            loop {
+                if depth == 0 {
+                    return true;
+                }
+                depth -= 1;
+                // SAFETY: every slot below `depth` was written by a push.
+                let next = unsafe { stack[depth].assume_init() };
+                let reach = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(
+                    _mm256_set1_ps(next.dist),
+                    _mm256_loadu_ps(cull.as_ptr()),
+                )) as u32;
+                let rays = next.rays & reach;
+                if rays != 0 {
+                    at = Pending { rays, ..next };
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// The packet's lanes and their slab test, in AVX2.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::PACKET;
+    use crate::aabb::SLAB_TFAR_SCALE;
+    use crate::bvh::lanes::{MAX, MIN};
+    use crate::Ray;
+
+    /// The rays' origins, inverse directions and `tmin`, one ray per lane,
+    /// and the rows of a node's bounds holding each axis's near and far
+    /// planes (the same for every ray of a packet).
+    pub(super) struct Lanes {
+        origin: [__m256; 3],
+        inv: [__m256; 3],
+        tmin: __m256,
+        near: [usize; 3],
+        far: [usize; 3],
+    }
+
+    impl Lanes {
+        /// The lanes of `rays`, or `None` unless every ray is on the
+        /// single-ray fast path (finite origin, direction and inverse
+        /// direction: `lanes::needs_nan_care` says no) and all directions
+        /// share one octant. The inverse directions are `1 / d` per lane,
+        /// bit for bit `Ray::inv_dir` wherever that is finite.
+        ///
+        /// # Safety
+        /// The CPU must support AVX2.
+        #[inline(always)]
+        pub(super) unsafe fn new(rays: &[Ray; PACKET]) -> Option<Self> {
+            // Plain loops and explicit loads (no closures or array maps:
+            // they were compiled out of line, without AVX2).
+            let mut rows = [[0.0f32; PACKET]; 7];
+            for (i, r) in rays.iter().enumerate() {
+                rows[0][i] = r.origin.x;
+                rows[1][i] = r.origin.y;
+                rows[2][i] = r.origin.z;
+                rows[3][i] = r.dir.x;
+                rows[4][i] = r.dir.y;
+                rows[5][i] = r.dir.z;
+                rows[6][i] = r.tmin;
+            }
+            let origin = [
+                _mm256_loadu_ps(rows[0].as_ptr()),
+                _mm256_loadu_ps(rows[1].as_ptr()),
+                _mm256_loadu_ps(rows[2].as_ptr()),
+            ];
+            let one = _mm256_set1_ps(1.0);
+            let inv = [
+                _mm256_div_ps(one, _mm256_loadu_ps(rows[3].as_ptr())),
+                _mm256_div_ps(one, _mm256_loadu_ps(rows[4].as_ptr())),
+                _mm256_div_ps(one, _mm256_loadu_ps(rows[5].as_ptr())),
+            ];
+            // Finite lanes: `x * 0` is 0 for them and NaN for infinities
+            // and NaN. The direction is finite where its inverse is
+            // nonzero, and nonzero where its inverse is finite.
+            let zero = _mm256_setzero_ps();
+            let finite = |x: __m256| _mm256_cmp_ps::<_CMP_EQ_OQ>(_mm256_mul_ps(x, zero), zero);
+            let nonzero = |x: __m256| _mm256_cmp_ps::<_CMP_NEQ_OQ>(x, zero);
+            let mut ok = _mm256_and_ps(finite(origin[0]), finite(origin[1]));
+            ok = _mm256_and_ps(ok, finite(origin[2]));
+            for v in inv {
+                ok = _mm256_and_ps(ok, _mm256_and_ps(finite(v), nonzero(v)));
+            }
+            let signs = [
+                _mm256_movemask_ps(inv[0]),
+                _mm256_movemask_ps(inv[1]),
+                _mm256_movemask_ps(inv[2]),
+            ];
+            if _mm256_movemask_ps(ok) != 0xff || signs.iter().any(|&m| m != 0 && m != 0xff) {
+                return None;
+            }
+            let shift = |a: usize| if signs[a] != 0 { MAX - MIN } else { 0 };
+            Some(Lanes {
+                origin,
+                inv,
+                tmin: _mm256_loadu_ps(rows[6].as_ptr()),
+                near: [MIN + shift(0), MIN + 1 + shift(1), MIN + 2 + shift(2)],
+                far: [MAX - shift(0), MAX + 1 - shift(1), MAX + 2 - shift(2)],
+            })
+        }
+
+        /// Entry distances and the lanes (all ones where entered) whose ray
+        /// enters the box with planes `planes` (indexed by row: `min x, min
+        /// y, min z, max x, max y, max z`) before `cull`: for each lane,
+        /// operation for operation the single-ray fast path
+        /// (`lanes::Avx2::hit`).
+        ///
+        /// # Safety
+        /// The CPU must support AVX2.
+        #[inline(always)]
+        pub(super) unsafe fn slab(&self, planes: &[f32; 6], cull: __m256) -> (__m256, __m256) {
+            let mut near = self.tmin;
+            let mut far = _mm256_set1_ps(f32::INFINITY);
+            for a in 0..3 {
+                let lo = _mm256_set1_ps(planes[self.near[a]]);
+                let hi = _mm256_set1_ps(planes[self.far[a]]);
+                let lo = _mm256_mul_ps(_mm256_sub_ps(lo, self.origin[a]), self.inv[a]);
+                let hi = _mm256_mul_ps(_mm256_sub_ps(hi, self.origin[a]), self.inv[a]);
+                near = _mm256_max_ps(near, lo);
+                far = _mm256_min_ps(far, hi);
+            }
+            let exit = _mm256_min_ps(_mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE)), cull);
+            (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, exit))
+        }
+    }
+
+    /// The smallest lane of `x` among those set in `mask` (+inf if none).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    pub(super) unsafe fn hmin_where(x: __m256, mask: __m256) -> f32 {
+        let v = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), x, mask);
+        let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
+        let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b01_00_11_10>(v, v));
+        let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b10_11_00_01>(v, v));
+        _mm256_cvtss_f32(v)
+    }
+}
