@@ -95,8 +95,8 @@ impl WideBvh {
         // The root's box first: a packet that misses it (the rays around a
         // framed model) costs one test.
         let b = self.bounds;
-        let root = [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z];
-        let (_, inside) = lanes.slab(&root, _mm256_loadu_ps(cull.as_ptr()));
+        let root = [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(|p| [p; 8]);
+        let (_, inside) = lanes.slab(&root, 0, _mm256_loadu_ps(cull.as_ptr()));
         let entered = _mm256_movemask_ps(inside) as u32;
         if entered == 0 {
             return true;
@@ -127,14 +127,13 @@ impl WideBvh {
                 let cull_lanes = _mm256_loadu_ps(cull.as_ptr());
                 // The children entered, nearest first (insertion into a
                 // list of at most eight).
-                let mut hits = [at; 8];
+                let mut hits = [const { MaybeUninit::<Pending>::uninit() }; 8];
                 let mut found = 0;
                 let mut slots = n.valid();
                 while slots != 0 {
                     let slot = slots.trailing_zeros() as usize;
                     slots &= slots - 1;
-                    let planes = [0, 1, 2, 3, 4, 5].map(|r| n.bounds[r][slot]);
-                    let (near, inside) = lanes.slab(&planes, cull_lanes);
+                    let (near, inside) = lanes.slab(&n.bounds, slot, cull_lanes);
                     let mask = _mm256_movemask_ps(inside) as u32 & at.rays;
                     if mask == 0 {
                         continue;
@@ -143,25 +142,27 @@ impl WideBvh {
                     // (lanes entering outside `at.rays` only lower it).
                     let dist = hmin_where(near, inside);
                     let mut j = found;
-                    while j > 0 && hits[j - 1].dist > dist {
+                    // SAFETY: the first `found` entries are written.
+                    while j > 0 && unsafe { hits[j - 1].assume_init() }.dist > dist {
                         hits[j] = hits[j - 1];
                         j -= 1;
                     }
-                    hits[j] = Pending {
+                    hits[j] = MaybeUninit::new(Pending {
                         child: n.child[slot],
                         count: n.count[slot],
                         rays: mask,
                         dist,
-                    };
+                    });
                     found += 1;
                 }
                 if found > 0 {
                     // Farthest pushed first, the nearest visited now.
                     for &h in hits[1..found].iter().rev() {
-                        stack[depth] = MaybeUninit::new(h);
+                        stack[depth] = h;
                         depth += 1;
                     }
-                    at = hits[0];
+                    // SAFETY: `found > 0` entries are written.
+                    at = unsafe { hits[0].assume_init() };
                     continue;
                 }
             }
@@ -272,20 +273,25 @@ mod avx2 {
         }
 
         /// Entry distances and the lanes (all ones where entered) whose ray
-        /// enters the box with planes `planes` (indexed by row: `min x, min
-        /// y, min z, max x, max y, max z`) before `cull`: for each lane,
-        /// operation for operation the single-ray fast path
-        /// (`lanes::Avx2::hit`).
+        /// enters box `slot` of `bounds` (rows as in `Node8::bounds`)
+        /// before `cull`: for each lane, operation for operation the
+        /// single-ray fast path (`lanes::Avx2::hit`).
         ///
         /// # Safety
         /// The CPU must support AVX2.
         #[inline(always)]
-        pub(super) unsafe fn slab(&self, planes: &[f32; 6], cull: __m256) -> (__m256, __m256) {
+        pub(super) unsafe fn slab(
+            &self,
+            bounds: &[[f32; PACKET]; 6],
+            slot: usize,
+            cull: __m256,
+        ) -> (__m256, __m256) {
             let mut near = self.tmin;
             let mut far = _mm256_set1_ps(f32::INFINITY);
             for a in 0..3 {
-                let lo = _mm256_set1_ps(planes[self.near[a]]);
-                let hi = _mm256_set1_ps(planes[self.far[a]]);
+                // Broadcast straight from the node's rows.
+                let lo = _mm256_broadcast_ss(&bounds[self.near[a]][slot]);
+                let hi = _mm256_broadcast_ss(&bounds[self.far[a]][slot]);
                 let lo = _mm256_mul_ps(_mm256_sub_ps(lo, self.origin[a]), self.inv[a]);
                 let hi = _mm256_mul_ps(_mm256_sub_ps(hi, self.origin[a]), self.inv[a]);
                 near = _mm256_max_ps(near, lo);
