@@ -573,7 +573,8 @@ mod tests {
             }
         }
         // And packets whose rays part ways: one octant, targets scattered
-        // over a quarter of the grid, from eyes at different heights.
+        // over a quarter of the grid, from eyes at different heights, and
+        // rays leaving a point on the grid again (`tmin` > 0).
         let mut state = 11u64;
         let mut next = || {
             state = state
@@ -581,11 +582,30 @@ mod tests {
                 .wrapping_add(1_442_695_040_888_963_407);
             (state >> 40) as f32 / (1u64 << 24) as f32
         };
-        for _ in 0..2000 {
+        for i in 0..6000 {
             let eye = Vec3::new(0.2 * next(), 0.2 * next(), 0.3 + 3.0 * next());
             for _ in 0..PACKET {
-                let target = Vec3::new(0.25 + next(), 0.25 + next(), -0.2 * next());
-                rays.push(Ray::new(eye, target - eye, 0.0, f32::INFINITY));
+                // A third of the packets from eight different origins
+                // around the eye (so that the packet's origin intervals are
+                // not points), a third from just above the grid.
+                let ray = match i % 3 {
+                    0 => {
+                        let target = Vec3::new(0.25 + next(), 0.25 + next(), -0.2 * next());
+                        Ray::new(eye, target - eye, 0.0, f32::INFINITY)
+                    }
+                    1 => {
+                        let from = eye + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 0.4;
+                        let target = Vec3::new(0.25 + next(), 0.25 + next(), -0.2 * next());
+                        Ray::new(from, target - from, 0.0, f32::INFINITY)
+                    }
+                    _ => {
+                        let (x, y) = (next(), next());
+                        let z = 0.1 * ((7.0 * x).sin() * (5.0 * y).cos()) + 1e-3;
+                        let dir = Vec3::new(next() + 0.01, next() + 0.01, 0.3 * next() + 0.01);
+                        Ray::new(Vec3::new(x, y, z), dir, 1e-4, f32::INFINITY)
+                    }
+                };
+                rays.push(ray);
             }
         }
         let avx2 = crate::bvh::lanes::has_avx2();
