@@ -17,12 +17,12 @@
 //! `max`/`min` order and exit widening), so a ray enters exactly the boxes
 //! it would enter alone for the same culling distance; and each leaf is
 //! tested per ray by the caller's single-ray leaf test. Only the order of
-//! the leaves differs (the packet goes nearest-first by its rays' smallest
-//! entry distance), which can change which of several triangles hit at
-//! exactly the same distance is reported, as the order of offering does
-//! between any two structures. Culling stays conservative: a popped entry
-//! drops a ray only when even the packet's smallest entry distance lies
-//! beyond that ray's closest hit.
+//! the leaves differs (the packet goes nearest-first by a lower bound of
+//! its rays' entry distances), which can change which of several triangles
+//! hit at exactly the same distance is reported, as the order of offering
+//! does between any two structures. Culling stays conservative: a popped
+//! entry drops a ray only when even that lower bound lies beyond the ray's
+//! closest hit (widened by the slab rounding bound, as for single rays).
 //!
 //! A packet must be coherent in the sense the fast path needs: finite
 //! origins and directions, no zero direction component, and every
