@@ -413,23 +413,7 @@ mod tests {
     /// A deterministic bumpy mesh with shared edges, plus a few hostile
     /// triangles (degenerate, huge, NaN), and rays from all around.
     fn scene() -> (TriangleMesh, Vec<Ray>) {
-        let n = 24;
-        let mut vertices = Vec::new();
-        for i in 0..=n {
-            for j in 0..=n {
-                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
-                let z = 0.1 * ((7.0 * x).sin() * (5.0 * y).cos());
-                vertices.push(Vec3::new(x, y, z));
-            }
-        }
-        let mut triangles = Vec::new();
-        let at = |i: u32, j: u32| i * (n + 1) + j;
-        for i in 0..n {
-            for j in 0..n {
-                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
+        let (mut vertices, mut triangles) = bumpy_grid_parts(24);
         let base = vertices.len() as u32;
         vertices.extend([
             Vec3::new(0.5, 0.5, 0.05),
@@ -663,6 +647,13 @@ mod tests {
 
     /// A bumpy `n` x `n` grid of triangles over the unit square.
     fn bumpy_grid(n: u32) -> TriangleMesh {
+        let (vertices, triangles) = bumpy_grid_parts(n);
+        mesh_of(vertices, triangles)
+    }
+
+    /// The vertices and triangles of [`bumpy_grid`]: height
+    /// `0.1 sin(7x) cos(5y)`, two triangles per cell.
+    fn bumpy_grid_parts(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         let mut vertices = Vec::new();
         for i in 0..=n {
             for j in 0..=n {
@@ -678,7 +669,7 @@ mod tests {
                 triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
             }
         }
-        mesh_of(vertices, triangles)
+        (vertices, triangles)
     }
 
     #[test]
