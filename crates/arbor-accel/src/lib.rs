@@ -41,7 +41,9 @@ mod util;
 
 pub use aabb::{Aabb, SLAB_TFAR_SCALE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
-pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, MeshHit, TriangleBvh, WideBvh, PACKET};
+pub use bvh::{
+    one_octant, Bvh, BvhBuilder, BvhNode, BvhParams, MeshHit, TriangleBvh, WideBvh, PACKET,
+};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
 pub use kdtree::{KdParams, KdTree};

@@ -911,13 +911,7 @@ mod tests {
     /// and its relative bound too small (7,723 of 1.4 million hits lost).
     #[test]
     fn hits_at_tiny_distances_are_not_declared_behind() {
-        let mut state = 7u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::util::unit_sequence(7);
         let mut checked = 0;
         for _ in 0..300_000 {
             let pick = |x: f32, of: [f32; 4]| of[(x * 4.0) as usize % 4];

@@ -196,6 +196,19 @@ where
     })
 }
 
+/// A deterministic sequence of numbers in `[0, 1)` for unit tests (a
+/// 64-bit linear congruential generator, its top 24 bits).
+#[cfg(test)]
+pub(crate) fn unit_sequence(seed: u64) -> impl FnMut() -> f32 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

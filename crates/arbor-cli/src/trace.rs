@@ -10,8 +10,8 @@ use std::time::Instant;
 use anyhow::Context;
 use arbor::mesh::load_mesh_file;
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, Accelerator, MeshHit, NoCounters, Ray, RayShear,
-    TriangleBvh, TriangleMesh, Vec3, PACKET,
+    intersect_triangle_sheared, one_octant, Accel, AccelKind, Accelerator, MeshHit, NoCounters,
+    Ray, RayShear, TriangleBvh, TriangleMesh, Vec3, PACKET,
 };
 use clap::Args;
 use rayon::prelude::*;
@@ -221,10 +221,6 @@ impl MeshTracer {
 /// paired runs: diffuse rays as fast as with the offer, camera rays 7-9 %
 /// faster than when every stream is offered; `docs/performance.md`.)
 fn looks_coherent(rays: &[Ray]) -> bool {
-    let one_octant = |g: &[Ray]| {
-        let octant = g[0].dir.is_negative_bitmask();
-        g.iter().all(|r| r.dir.is_negative_bitmask() == octant)
-    };
     let (mut groups, mut coherent) = (0, 0);
     for g in rays.chunks_exact(PACKET).take(64) {
         groups += 1;

@@ -109,8 +109,14 @@ pub(crate) fn needs_nan_care(ray: &Ray, inv: Vec3) -> bool {
 /// a ray with inverse direction `inv` (meaningful when `inv` is finite).
 #[inline(always)]
 fn near_far_rows(inv: Vec3) -> ([usize; 3], [usize; 3]) {
+    rows_for_signs(inv.is_negative_bitmask() as usize)
+}
+
+/// [`near_far_rows`] for the inverse direction's sign bits `negative`
+/// (bit `a` set: axis `a` is negative), shared with the packets' lanes.
+#[inline(always)]
+pub(crate) fn rows_for_signs(negative: usize) -> ([usize; 3], [usize; 3]) {
     // Sign bit `a` set: the max plane of axis `a` is the near one.
-    let negative = inv.is_negative_bitmask() as usize;
     let shift = |a: usize| (MAX - MIN) * (negative >> a & 1);
     let near = [0, 1, 2].map(|a| MIN + a + shift(a));
     let far = [0, 1, 2].map(|a| MAX + a - shift(a));

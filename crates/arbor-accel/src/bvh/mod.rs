@@ -14,7 +14,7 @@ mod topdown;
 mod triangles;
 mod wide;
 
-pub use packet::PACKET;
+pub use packet::{one_octant, PACKET};
 pub use triangles::{MeshHit, TriangleBvh};
 pub use wide::WideBvh;
 

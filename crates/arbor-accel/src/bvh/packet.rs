@@ -44,6 +44,18 @@ use crate::{Counters, Ray};
 /// Rays in a packet: one per AVX2 lane.
 pub const PACKET: usize = 8;
 
+/// Whether all directions of `rays` lie in one octant (the same sign bits):
+/// the cheap half of what a packet needs (see
+/// [`crate::TriangleBvh::closest_packet`]), which secondary rays in random
+/// directions fail at once.
+pub fn one_octant(rays: &[Ray]) -> bool {
+    let Some(first) = rays.first() else {
+        return true;
+    };
+    let octant = first.dir.is_negative_bitmask();
+    rays.iter().all(|r| r.dir.is_negative_bitmask() == octant)
+}
+
 /// A pending subtree: node or leaf (`child`, `count` as in a node's
 /// slots), the rays that entered it (bit `i` for lane `i`), and a lower
 /// bound of their entry distances.
@@ -195,7 +207,7 @@ mod avx2 {
 
     use super::PACKET;
     use crate::aabb::SLAB_TFAR_SCALE;
-    use crate::bvh::lanes::{MAX, MIN};
+    use crate::bvh::lanes::rows_for_signs;
     use crate::Ray;
 
     /// The rays' origins, inverse directions and `tmin`, one ray per lane,
@@ -262,13 +274,15 @@ mod avx2 {
             if _mm256_movemask_ps(ok) != 0xff || signs.iter().any(|&m| m != 0 && m != 0xff) {
                 return None;
             }
-            let shift = |a: usize| if signs[a] != 0 { MAX - MIN } else { 0 };
+            // One sign per axis for the whole packet: lane 0's bits.
+            let negative = (signs[0] & 1 | (signs[1] & 1) << 1 | (signs[2] & 1) << 2) as usize;
+            let (near, far) = rows_for_signs(negative);
             Some(Lanes {
                 origin,
                 inv,
                 tmin: _mm256_loadu_ps(rows[6].as_ptr()),
-                near: [MIN + shift(0), MIN + 1 + shift(1), MIN + 2 + shift(2)],
-                far: [MAX - shift(0), MAX + 1 - shift(1), MAX + 2 - shift(2)],
+                near,
+                far,
             })
         }
 

@@ -17,7 +17,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::packet::PACKET;
+use super::packet::{one_octant, PACKET};
 use super::{Bvh, BvhBuilder, BvhParams, WideBvh};
 #[cfg(target_arch = "x86_64")]
 use crate::triangle_lanes::pair;
@@ -212,9 +212,7 @@ impl TriangleBvh {
     ) -> Option<[Option<MeshHit>; PACKET]> {
         // Directions in different octants (secondary rays, mostly) cannot
         // form a packet: found out here for the price of eight sign masks.
-        let octant = rays[0].dir.is_negative_bitmask();
-        if !self.unbounded.is_empty() || rays.iter().any(|r| r.dir.is_negative_bitmask() != octant)
-        {
+        if !self.unbounded.is_empty() || !one_octant(rays) {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
@@ -559,13 +557,7 @@ mod tests {
         // And packets whose rays part ways: one octant, targets scattered
         // over a quarter of the grid, from eyes at different heights, and
         // rays leaving a point on the grid again (`tmin` > 0).
-        let mut state = 11u64;
-        let mut next = || {
-            state = state
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(1_442_695_040_888_963_407);
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = crate::util::unit_sequence(11);
         for i in 0..6000 {
             let eye = Vec3::new(0.2 * next(), 0.2 * next(), 0.3 + 3.0 * next());
             for _ in 0..PACKET {
@@ -596,8 +588,7 @@ mod tests {
         let (mut packets, mut hits, mut other_triangle) = (0, 0, 0);
         for chunk in rays.chunks_exact(PACKET) {
             let packet: &[Ray; PACKET] = chunk.try_into().unwrap();
-            let octant = packet[0].dir.is_negative_bitmask();
-            let coherent = packet.iter().all(|r| r.dir.is_negative_bitmask() == octant);
+            let coherent = one_octant(packet);
             let Some(got) = bvh.closest_packet(packet, &mut crate::NoCounters) else {
                 assert!(!avx2 || !coherent, "a coherent packet was declined");
                 continue;
