@@ -39,7 +39,7 @@ mod triangle;
 mod triangle_lanes;
 mod util;
 
-pub use aabb::{Aabb, SLAB_TFAR_SCALE};
+pub use aabb::{widen_exit, Aabb, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
 pub use bvh::{
     one_octant, Bvh, BvhBuilder, BvhNode, BvhParams, MeshHit, TriangleBvh, WideBvh, PACKET,

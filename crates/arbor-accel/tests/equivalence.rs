@@ -49,7 +49,10 @@ fn ray_spec() -> impl Strategy<Value = RaySpec> {
         point(),
         (dir_component(), dir_component(), dir_component()),
         prop::option::weighted(0.3, any::<usize>()),
-        prop_oneof![3 => Just(0.0f32), 1 => 0.0f32..2.0],
+        // Mostly rays leaving their origin; some that also look behind it
+        // (`tmin < 0`: the structures' slow path, where a box's exit
+        // behind the origin is widened by its sign).
+        prop_oneof![3 => Just(0.0f32), 1 => 0.0f32..2.0, 1 => -30.0f32..0.0],
         prop_oneof![3 => Just(f32::INFINITY), 1 => 0.0f32..30.0],
     )
         .prop_map(|(origin, (x, y, z), aim, tmin, tmax)| RaySpec {
@@ -125,6 +128,12 @@ fn closer(best: Option<(f32, u32)>, t: f32) -> bool {
 
 fn make_ray(spec: &RaySpec, targets: &[Vec3]) -> Ray {
     let dir = match spec.aim {
+        // A ray that may look behind its origin is aimed away from its
+        // target, which it then passes at t = -1: through a vertex or an
+        // edge, on the boundary of boxes it may only touch.
+        Some(i) if !targets.is_empty() && spec.tmin < 0.0 => {
+            spec.origin - targets[i % targets.len()]
+        }
         Some(i) if !targets.is_empty() => targets[i % targets.len()] - spec.origin,
         _ => spec.dir,
     };

@@ -20,7 +20,7 @@
 //!    arithmetic), which is less than `p`. So wherever the `f64` ray is inside
 //!    a primitive's box, the `f32` ray is inside the padded `f32` box at the
 //!    same parameter (shifted by `t0`).
-//! 3. The slab test itself is conservative to its rounding (Ize 2013, see
+//! 3. The slab test itself is conservative to its rounding (see
 //!    `arbor_accel::Aabb::intersect`), and the culling distance handed back
 //!    to traversal is the best `f64` hit rounded *up* to `f32`.
 //!

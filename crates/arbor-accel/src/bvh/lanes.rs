@@ -12,7 +12,7 @@
 
 use glam::{Vec3, Vec3A, Vec4};
 
-use crate::aabb::SLAB_TFAR_SCALE;
+use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
 use crate::Ray;
 
 /// Children per node.
@@ -81,7 +81,8 @@ pub(crate) trait BoxLanes {
     /// widened by the caller).
     ///
     /// `NAN_SAFE = false` is the fast path for rays whose origin and
-    /// direction are finite and whose direction has no zero component:
+    /// direction are finite, whose direction has no zero component and
+    /// whose `tmin` is not negative (see [`needs_slow_path`]):
     /// then `(bound - origin) * inv` is never NaN (no `0 * inf`, and `inv`
     /// is never 0 or NaN), so the on-plane fix-up can be skipped, and the
     /// sign of `inv` tells in advance which plane of each slab is the near
@@ -89,20 +90,26 @@ pub(crate) trait BoxLanes {
     /// is monotonic): the near distances come from the near rows alone, the
     /// far ones from the far rows, with the very values `min`/`max` of both
     /// would pick and without the six `min`/`max` (the trick Embree and pbrt
-    /// use). Empty slots need no mask there (see [`Node8::EMPTY`]).
+    /// use). Empty slots need no mask there (see [`Node8::EMPTY`]), and the
+    /// exit is widened by the plain product with `SLAB_TFAR_SCALE`: with
+    /// `tmin >= 0` an exit below zero rejects the box however it is
+    /// widened.
     fn hit<const NAN_SAFE: bool>(&self, n: &Node8, tmax: f32) -> ([f32; WIDTH], u32);
 }
 
-/// Whether a ray with inverse direction `inv` needs the NaN fix-up of
-/// [`BoxLanes::hit`].
+/// Whether a ray with inverse direction `inv` needs the slow path of
+/// [`BoxLanes::hit`]: an origin, direction or inverse direction that is not
+/// finite (the NaN fix-up), or `tmin < 0` (or NaN), for which a box's exit
+/// behind the origin can matter and must be widened by its sign (see
+/// `crate::aabb::widen_exit`).
 #[inline(always)]
-pub(crate) fn needs_nan_care(ray: &Ray, inv: Vec3) -> bool {
+pub(crate) fn needs_slow_path(ray: &Ray, inv: Vec3) -> bool {
     // The nine finiteness checks as three SIMD compares and one mask
     // instead of nine scalar tests and branches (run once per ray).
     let finite = Vec3A::from(ray.origin).is_finite_mask()
         & Vec3A::from(ray.dir).is_finite_mask()
         & Vec3A::from(inv).is_finite_mask();
-    !finite.all()
+    !finite.all() || ray.tmin.is_nan() || ray.tmin < 0.0
 }
 
 /// The rows of `Node8::bounds` holding each axis's near and far planes for
@@ -157,7 +164,15 @@ impl Portable {
             near = near.max(lo);
             far = far.min(hi);
         }
-        let exit = (far * SLAB_TFAR_SCALE).min(Vec4::splat(tmax));
+        // The fast path serves rays with `tmin >= 0` only, for which the
+        // plain product is the widened exit wherever it matters (see
+        // `widen_exit`); otherwise a negative exit is widened toward +inf.
+        let far = if NAN_SAFE {
+            (far * SLAB_TFAR_SCALE).max(far * SLAB_TFAR_SCALE_NEGATIVE)
+        } else {
+            far * SLAB_TFAR_SCALE
+        };
+        let exit = far.min(Vec4::splat(tmax));
         (near, near.cmple(exit).bitmask())
     }
 }
@@ -218,7 +233,7 @@ mod avx2 {
     use glam::Vec3;
 
     use super::{near_far_rows, BoxLanes, Node8, EMPTY, MAX, MIN, WIDTH};
-    use crate::aabb::SLAB_TFAR_SCALE;
+    use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
     use crate::Ray;
 
     /// Whether this CPU runs the AVX2 path (checked once, then cached by
@@ -315,10 +330,18 @@ mod avx2 {
                     near = _mm256_max_ps(near, tlo);
                     far = _mm256_min_ps(far, thi);
                 }
-                let exit = _mm256_min_ps(
-                    _mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE)),
-                    _mm256_set1_ps(tmax),
-                );
+                // As in `Portable::half`: the plain product on the fast path
+                // (`tmin >= 0`), a sign-aware widening otherwise.
+                let scaled = _mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE));
+                let widened = if NAN_SAFE {
+                    _mm256_max_ps(
+                        scaled,
+                        _mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE_NEGATIVE)),
+                    )
+                } else {
+                    scaled
+                };
+                let exit = _mm256_min_ps(widened, _mm256_set1_ps(tmax));
                 let mut inside = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, exit)) as u32;
                 if NAN_SAFE {
                     let empty = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(
@@ -377,7 +400,7 @@ mod tests {
                         if dz == 0.0 { 2.0 } else { f32::INFINITY },
                     );
                     let inv = ray.inv_dir();
-                    let nan_care = needs_nan_care(&ray, inv);
+                    let nan_care = needs_slow_path(&ray, inv);
                     let p = Portable::new(&ray, inv);
                     let (pt, pb) = if nan_care {
                         p.hit::<true>(&node, ray.tmax)

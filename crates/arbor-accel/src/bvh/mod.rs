@@ -22,7 +22,7 @@ use std::mem::MaybeUninit;
 
 use glam::{Vec3, Vec3A, Vec4};
 
-use crate::aabb::SLAB_TFAR_SCALE;
+use crate::aabb::widen_exit;
 use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
 
@@ -326,7 +326,7 @@ impl RayBox {
         let near = Vec3A::select(on_plane, Vec3A::NEG_INFINITY, t0.min(t1));
         let far = Vec3A::select(on_plane, Vec3A::INFINITY, t0.max(t1));
         let enter = near.max_element().max(self.tmin);
-        let exit = (far.min_element() * SLAB_TFAR_SCALE).min(tmax);
+        let exit = widen_exit(far.min_element()).min(tmax);
         (enter <= exit).then_some(enter)
     }
 }

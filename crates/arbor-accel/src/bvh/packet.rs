@@ -25,7 +25,7 @@
 //! closest hit (widened by the slab rounding bound, as for single rays).
 //!
 //! A packet must be coherent in the sense the fast path needs: finite
-//! origins and directions, no zero direction component, and every
+//! origins and directions, no zero direction component, `tmin >= 0`, and every
 //! direction in the same octant (so that the near planes are the same rows
 //! for all lanes). The traversal checks it first and declines other
 //! groups, which callers then trace ray by ray.
@@ -224,7 +224,7 @@ mod avx2 {
     impl Lanes {
         /// The lanes of `rays`, or `None` unless every ray is on the
         /// single-ray fast path (finite origin, direction and inverse
-        /// direction: `lanes::needs_nan_care` says no) and all directions
+        /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all directions
         /// share one octant. The inverse directions are `1 / d` per lane,
         /// bit for bit `Ray::inv_dir` wherever that is finite.
         ///
@@ -266,6 +266,9 @@ mod avx2 {
             for v in inv {
                 ok = _mm256_and_ps(ok, _mm256_and_ps(finite(v), nonzero(v)));
             }
+            // `tmin >= 0` (false for NaN), as the fast path requires.
+            let tmin = _mm256_loadu_ps(rows[6].as_ptr());
+            ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GE_OQ>(tmin, zero));
             let signs = [
                 _mm256_movemask_ps(inv[0]),
                 _mm256_movemask_ps(inv[1]),
@@ -280,7 +283,7 @@ mod avx2 {
             Some(Lanes {
                 origin,
                 inv,
-                tmin: _mm256_loadu_ps(rows[6].as_ptr()),
+                tmin,
                 near,
                 far,
             })

@@ -39,7 +39,7 @@ use std::mem::MaybeUninit;
 use glam::Vec3A;
 use rayon::prelude::*;
 
-use super::lanes::{needs_nan_care, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
+use super::lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 use super::{Bvh, BvhBuilder, BvhParams, RayBox, STACK_SIZE};
 use crate::util::{offer_any, offer_closest, prefetch, widen_up};
 use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray, Vec3};
@@ -398,7 +398,7 @@ impl WideBvh {
         let Some(inv) = self.entered(&ray) else {
             return;
         };
-        if needs_nan_care(&ray, inv) {
+        if needs_slow_path(&ray, inv) {
             self.closest_with::<true, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
         } else {
             self.closest_with::<false, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf);
@@ -424,7 +424,7 @@ impl WideBvh {
         let Some(inv) = self.entered(ray) else {
             return false;
         };
-        if needs_nan_care(ray, inv) {
+        if needs_slow_path(ray, inv) {
             self.occluded_with::<true, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
         } else {
             self.occluded_with::<false, B, C, L, P>(ray, inv, counters, leaf, prefetch_leaf)
@@ -697,7 +697,7 @@ mod tests {
                                     let lanes = Portable::new(&ray, inv);
                                     let root = &bvh.nodes[0];
                                     let cull = widen_up(ray.tmax);
-                                    let (_, bits) = if needs_nan_care(&ray, inv) {
+                                    let (_, bits) = if needs_slow_path(&ray, inv) {
                                         lanes.hit::<true>(root, cull)
                                     } else {
                                         lanes.hit::<false>(root, cull)
