@@ -75,27 +75,42 @@ pub fn check(data: &[u8]) -> usize {
         if !ray.origin.is_finite() || !ray.dir.is_finite() {
             continue;
         }
-        let expected = closest(&list, &mesh, &ray);
-        let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
-        let occluded = list.occluded(&ray, &mut NoCounters, test);
-        for (a, kind) in built.iter().zip(AccelKind::ALL) {
-            assert_eq!(closest(a, &mesh, &ray), expected, "{kind} {ray:?}");
-            assert_eq!(a.occluded(&ray, &mut NoCounters, test), occluded, "{kind}");
+        // Each ray as decoded, then looking behind its origin as far as
+        // ahead (`tmin < 0`: the structures' slow path, where a box's exit
+        // behind the origin must be widened by its sign).
+        let behind = Ray {
+            tmin: -ray.tmax,
+            ..ray
+        };
+        for ray in [ray, behind] {
+            check_ray(&mesh, &list, &built, &packed, &ray);
+            checked += 1;
         }
-        // Of tied triangles it keeps the first offered: the same distance,
-        // on a triangle that the scalar test hits there.
-        let got = packed.closest(&ray, &mut NoCounters);
-        assert_eq!(
-            got.map(|h| h.hit.t),
-            expected.map(|e| e.0),
-            "packed {ray:?}"
-        );
-        if let Some(h) = got {
-            let own = mesh.intersect(h.prim as usize, &ray).map(|x| x.t);
-            assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
-        }
-        assert_eq!(packed.occluded(&ray, &mut NoCounters), occluded, "packed");
-        checked += 1;
     }
     checked
+}
+
+/// Asserts that every structure answers `ray`'s closest-hit and occlusion
+/// queries as brute force (`list`) does.
+fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &TriangleBvh, ray: &Ray) {
+    let expected = closest(list, mesh, ray);
+    let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
+    let occluded = list.occluded(ray, &mut NoCounters, test);
+    for (a, kind) in built.iter().zip(AccelKind::ALL) {
+        assert_eq!(closest(a, mesh, ray), expected, "{kind} {ray:?}");
+        assert_eq!(a.occluded(ray, &mut NoCounters, test), occluded, "{kind}");
+    }
+    // Of tied triangles it keeps the first offered: the same distance,
+    // on a triangle that the scalar test hits there.
+    let got = packed.closest(ray, &mut NoCounters);
+    assert_eq!(
+        got.map(|h| h.hit.t),
+        expected.map(|e| e.0),
+        "packed {ray:?}"
+    );
+    if let Some(h) = got {
+        let own = mesh.intersect(h.prim as usize, ray).map(|x| x.t);
+        assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
+    }
+    assert_eq!(packed.occluded(ray, &mut NoCounters), occluded, "packed");
 }
