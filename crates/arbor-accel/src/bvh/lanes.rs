@@ -400,9 +400,9 @@ mod tests {
                         if dz == 0.0 { 2.0 } else { f32::INFINITY },
                     );
                     let inv = ray.inv_dir();
-                    let nan_care = needs_slow_path(&ray, inv);
+                    let slow = needs_slow_path(&ray, inv);
                     let p = Portable::new(&ray, inv);
-                    let (pt, pb) = if nan_care {
+                    let (pt, pb) = if slow {
                         p.hit::<true>(&node, ray.tmax)
                     } else {
                         p.hit::<false>(&node, ray.tmax)
@@ -428,7 +428,7 @@ mod tests {
                     #[cfg(target_arch = "x86_64")]
                     if has_avx2() {
                         let v = Avx2::new(&ray, inv);
-                        let (vt, vb) = if nan_care {
+                        let (vt, vb) = if slow {
                             v.hit::<true>(&node, ray.tmax)
                         } else {
                             v.hit::<false>(&node, ray.tmax)

@@ -25,9 +25,9 @@
 //! closest hit (widened by the slab rounding bound, as for single rays).
 //!
 //! A packet must be coherent in the sense the fast path needs: finite
-//! origins and directions, no zero direction component, `tmin >= 0`, and every
-//! direction in the same octant (so that the near planes are the same rows
-//! for all lanes). The traversal checks it first and declines other
+//! origins and directions, no zero direction component, `tmin >= 0`, and
+//! every direction in the same octant (so that the near planes are the same
+//! rows for all lanes). The traversal checks it first and declines other
 //! groups, which callers then trace ray by ray.
 
 // Packets are traced with AVX2 only; elsewhere callers trace ray by ray.
@@ -224,8 +224,8 @@ mod avx2 {
     impl Lanes {
         /// The lanes of `rays`, or `None` unless every ray is on the
         /// single-ray fast path (finite origin, direction and inverse
-        /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all directions
-        /// share one octant. The inverse directions are `1 / d` per lane,
+        /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all
+        /// directions share one octant. The inverse directions are `1 / d` per lane,
         /// bit for bit `Ray::inv_dir` wherever that is finite.
         ///
         /// # Safety

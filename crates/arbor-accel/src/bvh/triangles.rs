@@ -627,13 +627,21 @@ mod tests {
                 "{other_triangle} ties of {hits}"
             );
         }
-        // Declined: without AVX2, and across octants.
+        // Declined: without AVX2, across octants, and with a ray that also
+        // looks behind its origin (`tmin < 0`: the fast path's exit
+        // widening holds only for `tmin >= 0`).
         let packet: &[Ray; PACKET] = rays[..PACKET].try_into().unwrap();
         let declined = without_avx2(|| bvh.closest_packet(packet, &mut crate::NoCounters));
         assert_eq!(declined, None);
         let mut mixed = *packet;
         mixed[3].dir.x = -mixed[3].dir.x;
         assert_eq!(bvh.closest_packet(&mixed, &mut crate::NoCounters), None);
+        let mut behind = *packet;
+        behind[5].tmin = -1.0;
+        assert_eq!(bvh.closest_packet(&behind, &mut crate::NoCounters), None);
+        if avx2 {
+            assert!(bvh.closest_packet(packet, &mut crate::NoCounters).is_some());
+        }
     }
 
     /// A bumpy `n` x `n` grid of triangles over the unit square.
