@@ -221,13 +221,8 @@ mod tests {
     /// ten of the cases behind the origin were rejected.
     #[test]
     fn boxes_touched_along_an_edge_are_entered() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::util::unit_sequence(13);
+        let mut next = move || f64::from(unit());
         let (mut ahead, mut behind) = (0, 0);
         for i in 0..200_000 {
             let (ox, oy) = ((next() * 20.0 - 10.0) as f32, (next() * 20.0 - 10.0) as f32);

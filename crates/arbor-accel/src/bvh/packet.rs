@@ -225,8 +225,8 @@ mod avx2 {
         /// The lanes of `rays`, or `None` unless every ray is on the
         /// single-ray fast path (finite origin, direction and inverse
         /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all
-        /// directions share one octant. The inverse directions are `1 / d` per lane,
-        /// bit for bit `Ray::inv_dir` wherever that is finite.
+        /// directions share one octant. The inverse directions are `1 / d`
+        /// per lane, bit for bit `Ray::inv_dir` wherever that is finite.
         ///
         /// # Safety
         /// The CPU must support AVX2.

@@ -200,8 +200,9 @@ impl TriangleBvh {
     /// [`TriangleBvh::closest`] for each of eight rays traced together as a
     /// packet, or `None` (nothing traced) when they are not coherent enough
     /// for one: they must be finite, with no zero direction component,
-    /// `tmin >= 0` and all directions in one octant (neighbouring camera rays are), and the
-    /// CPU must have AVX2. Callers trace the others one by one. Each answer
+    /// `tmin >= 0` and all directions in one octant (neighbouring camera
+    /// rays are), and the CPU must have AVX2. Callers trace the others one
+    /// by one. Each answer
     /// is the ray's own closest hit; of several triangles hit at exactly
     /// the same distance, the packet may report another one than the
     /// single ray would (see `bvh/packet.rs`).
