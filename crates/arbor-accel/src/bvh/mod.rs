@@ -14,9 +14,8 @@ mod topdown;
 mod triangles;
 mod wide;
 
-pub(crate) use packet::looks_coherent;
-pub use packet::{one_octant, PACKET};
-pub use triangles::TriangleBvh;
+pub(crate) use packet::{looks_coherent, PACKET};
+pub(crate) use triangles::TriangleBvh;
 pub use wide::WideBvh;
 
 use std::mem::MaybeUninit;

@@ -42,8 +42,6 @@ pub struct TriangleBvh {
     packets: Vec<Tri4>,
     /// Triangles without a finite box (offered to every ray), with their ids.
     unbounded: Vec<(u32, [Vec3; 3])>,
-    /// Triangles indexed (in packets or unbounded).
-    len: usize,
 }
 
 /// Packs the triangles of every leaf (`leaves[i]` holds slots
@@ -136,7 +134,6 @@ impl TriangleBvh {
             .iter()
             .map(|&p| (p, mesh.triangle(p as usize)))
             .collect();
-        let len = slots.len() + unbounded.len();
         let bvh = bvh.into_leaf_storage(|first| {
             let i = leaves.partition_point(|&(f, _)| f < first);
             packet_of[i]
@@ -145,7 +142,6 @@ impl TriangleBvh {
             bvh,
             packets,
             unbounded,
-            len,
         }
     }
 
@@ -410,13 +406,16 @@ impl TriangleBvh {
         stats
     }
 
-    /// Number of triangles indexed (those of the mesh that can be hit).
-    pub fn len(&self) -> usize {
-        self.len
+    /// Number of triangles indexed (in packets or unbounded).
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        let packed = self.packets.iter().flat_map(|p| p.ids);
+        packed.filter(|&id| id != Tri4::NO_ID).count() + self.unbounded.len()
     }
 
     /// Whether no triangle is indexed.
-    pub fn is_empty(&self) -> bool {
+    #[cfg(test)]
+    fn is_empty(&self) -> bool {
         self.len() == 0
     }
 }
