@@ -744,6 +744,23 @@ mod tests {
             .collect()
     }
 
+    /// `n` boxes around the origin, a third of their coordinates exactly 0
+    /// or -0: which zero a box keeps depends on the order boxes are merged.
+    fn zero_boxes(n: usize, seed: u64) -> Vec<Aabb> {
+        let mut next = crate::util::unit_sequence(seed);
+        let mut coord = |sign: f32| match next() {
+            u if u < 0.15 => 0.0,
+            u if u < 0.3 => -0.0,
+            _ => sign * 0.01 * next(),
+        };
+        (0..n)
+            .map(|_| {
+                let lo = Vec3::new(coord(-1.0), coord(-1.0), coord(-1.0));
+                Aabb::new(lo, Vec3::new(coord(1.0), coord(1.0), coord(1.0)))
+            })
+            .collect()
+    }
+
     #[test]
     fn binned_sah_trees_are_pinned() {
         // Speed work on the binned builder must keep its trees bit for bit
@@ -762,6 +779,7 @@ mod tests {
             ),
             (boxes(60_000, true, 3), block4, 0xdfc0_37e2_6f3b_1fdc),
             (boxes(60_000, false, 5), block4, 0x0b3a_8117_c82f_8d09),
+            (zero_boxes(40_000, 7), block4, 0x3a0e_3a85_0ad9_a87f),
         ];
         let got = cases
             .each_ref()
