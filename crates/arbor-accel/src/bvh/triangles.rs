@@ -314,6 +314,9 @@ impl TriangleBvh {
         self.bvh.closest_leaves(
             *ray,
             counters,
+            // Inlined into the AVX2 traversal, so the lane test is compiled
+            // for AVX2 too (out of line, its intrinsics became calls).
+            #[inline(always)]
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
                 self.test_leaf::<false, true, C>(
