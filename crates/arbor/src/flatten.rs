@@ -617,19 +617,15 @@ impl Flattened {
     /// the tracer can wrap it in a bounding volume (the lecture's bounded
     /// surface: skip the whole object when the ray misses its volume).
     pub fn bounded(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
-        let mut out = Flattened::new(
-            &Scene {
-                surfaces: Vec::new(),
-                ..scene.clone()
-            },
-            max_placements,
-        )?;
+        let mut out = Flattened::of_surfaces(&[], scene.variant, max_placements)?;
         for surface in &scene.surfaces {
-            let single = Scene {
-                surfaces: vec![surface.clone()],
-                ..scene.clone()
-            };
-            let part = Flattened::new(&single, max_placements)?;
+            // One surface at a time, borrowed: copying the scene for each
+            // (as this once did) made `--bvol` quadratic in the surfaces.
+            let part = Flattened::of_surfaces(
+                std::slice::from_ref(surface),
+                scene.variant,
+                max_placements,
+            )?;
             let offset = out.shared.len() as u32;
             out.placements
                 .extend(part.placements.into_iter().map(|p| Placement {
@@ -653,7 +649,17 @@ impl Flattened {
     /// before allocating when more than `max_placements` placements would
     /// result.
     pub fn new(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
-        let uses = placement_counts(&scene.surfaces);
+        Flattened::of_surfaces(&scene.surfaces, scene.variant, max_placements)
+    }
+
+    /// [`Flattened::new`] of the top-level `surfaces` of a scene of
+    /// `variant` (all that flattening reads of a scene).
+    fn of_surfaces(
+        surfaces: &[Surface],
+        variant: Variant,
+        max_placements: u64,
+    ) -> Result<Flattened, FlattenError> {
+        let uses = placement_counts(surfaces);
         // Placements are made for each shared definition holding geometry,
         // once per path that reaches it.
         let total: u64 = uses
@@ -670,13 +676,13 @@ impl Flattened {
             uses,
             shared_index: HashMap::default(),
             out: Flattened {
-                world: FlatScene::empty(scene.variant),
+                world: FlatScene::empty(variant),
                 shared: Vec::new(),
                 placements: Vec::with_capacity(total as usize),
                 objects: Vec::new(),
             },
         };
-        for surface in &scene.surfaces {
+        for surface in surfaces {
             builder.walk(surface, DMat4::IDENTITY)?;
         }
         builder.out.world.finish();
