@@ -346,9 +346,8 @@ impl Numerator {
 /// Whether a triangle whose edge functions `u, v, w` have certain signs,
 /// none of them opposite, is certainly hit well inside the ray's interval,
 /// so that an any-hit query may stop without [`hit_from_certain_edges`]'s
-/// `f64` distance (which occluded rays paid on nearly every blocker:
-/// callgrind, buddha100k shadow rays, 0.71 calls of ~290 instructions per
-/// ray, with 71 % of the rays occluded).
+/// `f64` distance, which occluded rays would otherwise pay on nearly every
+/// blocker (docs/perf-log/2026-11-24-sixth-round.md).
 ///
 /// The exact distance is `T / D` (see [`certainly_behind`]): the exact `T`
 /// lies within `E` of the computed one, and the exact `D` within
@@ -403,9 +402,8 @@ fn certainly_hit_within(n: &Numerator, ray: &Ray, uvw: [f32; 3], scale: f32) -> 
 ///
 /// Not inlined: inlined into a traversal, its per-ray set-up (the ray in
 /// `f64`, the reciprocal direction) was hoisted into every leaf visit of the
-/// any-hit traversal, whether a candidate needed it or not (callgrind,
-/// bunny1k shadow rays: 1388 -> 1316 instructions per ray; closest-hit rays
-/// within 0.3%).
+/// any-hit traversal, whether a candidate needed it or not
+/// (docs/perf-log/2026-11-23-fourth-round.md).
 #[inline(never)]
 fn hit_from_weights(
     ray: &Ray,

@@ -148,11 +148,8 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
     // The scalar test's error bound, in the same order of operations. (A
-    // cheaper one, with `m` replaced by `s`, was tried: for camera rays,
-    // whose triangles lie far along the ray, `s` is `m` times the distance
-    // over the triangle's size, and the looser bound sent so many lanes
-    // through the scalar test that buddha100k primary rays took 79 ms
-    // instead of 48.)
+    // cheaper one, `m` replaced by `s`, sends most camera-ray lanes to the
+    // scalar test: docs/perf-log/2026-11-23-fourth-round.md.)
     let scale = la.max(lb).max(lc);
     let m = ax
         .abs()

@@ -267,8 +267,8 @@ impl Splitter for Median {
 const MAX_BINS: usize = 32;
 
 /// Nodes this small are binned with 8 bins whatever `params.bins` says:
-/// clearing and sweeping more bins costs more than it gains here (measured:
-/// SAH cost +0.3 %, build CPU -15 % on a 1M-triangle mesh).
+/// clearing and sweeping more bins costs more than it gains here
+/// (docs/perf-log/2026-12-01-intel-build.md keeps the measurement).
 const SMALL: usize = 256;
 
 /// Nodes from this size on bin a 1-in-4 sample.
@@ -327,7 +327,7 @@ impl<const B: usize> Binner<B> {
         let k = truncate(self.bins(c));
         // The clamp above keeps every index below `B` already; the mask
         // (a no-op on such values) lets the compiler drop the bounds checks
-        // of the bin arrays: six instructions per reference and pass.
+        // of the bin arrays.
         [
             k[0] as usize & (B - 1),
             k[1] as usize & (B - 1),

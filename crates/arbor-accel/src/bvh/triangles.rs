@@ -99,10 +99,8 @@ fn pack_leaves(
 impl TriangleBvh {
     /// The build parameters that suit four-at-a-time leaf tests: the binned
     /// SAH counting a leaf of `n` triangles as `ceil(n / 4)` tests, so that
-    /// leaves fill their packets (callgrind, buddha100k diffuse rays: 214 M
-    /// instructions per pass at 57.8 bytes per triangle, against 197 M at
-    /// 83.1 bytes with one test per triangle and a node visit costing two;
-    /// `docs/performance.md`).
+    /// leaves fill their packets: fewer bytes per triangle for slightly more
+    /// instructions (docs/perf-log/2026-11-23-second-round.md).
     pub fn params() -> BvhParams {
         BvhParams {
             leaf_block: LANES,

@@ -57,8 +57,8 @@ pub struct WideBvh {
     prims: Vec<u32>,
     unbounded: Vec<u32>,
     /// The root's box, the union of all others: a ray that misses it (most
-    /// primary rays of a framed model: 70-75 % of those of `versus.py`)
-    /// is turned away before the traversal's set-up.
+    /// primary rays of a framed model) is turned away before the
+    /// traversal's set-up.
     pub(super) bounds: Aabb,
     max_depth: usize,
     sah_cost: Option<f64>,
@@ -559,9 +559,9 @@ impl WideBvh {
     }
 }
 
-/// The traversal stack: a fixed array left uninitialised. Zeroing a
-/// 2.3 KB array per ray (at 4 wide) was a fifth of all instructions of a diffuse-ray
-/// trace (callgrind: `memset` 231 M of 1116 M), more than the box tests.
+/// The traversal stack: a fixed array left uninitialised, since zeroing it
+/// per ray cost more than the box tests
+/// (docs/perf-log/2026-11-23-first-round.md).
 struct Stack<T: Copy> {
     items: [MaybeUninit<T>; WIDE_STACK],
     len: usize,
