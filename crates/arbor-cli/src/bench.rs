@@ -590,7 +590,7 @@ enum Input {
 /// `.ply` and `.stl` through the model importer's mesh readers; `.obj` and
 /// `.msh` as `arbor trace` reads them (so triangle numbering matches).
 fn load_input(path: &Path) -> anyhow::Result<Input> {
-    let ext = arbor::model::lower_extension(path);
+    let ext = arbor::load::lower_extension(path);
     let scene = match ext.as_deref() {
         Some("xml") => Some(
             arbor::xml::load_scene(path)
@@ -598,7 +598,7 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
                 .scene,
         ),
         Some("gltf") | Some("glb") => Some(
-            arbor::model::load_model_scene(path)
+            arbor::load::load_model_scene(path)
                 .map_err(|e| InputError(e.to_string()))?
                 .0,
         ),
@@ -611,8 +611,8 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
         return Ok(Input::Scene(SceneSubject { scene, primitives }));
     }
     let mesh = match ext.as_deref() {
-        Some("ply") | Some("stl") => arbor::model::load_mesh_data(path),
-        _ => arbor::mesh::load_mesh_file(path),
+        Some("ply") | Some("stl") => arbor::load::load_mesh_data(path),
+        _ => arbor::load::load_mesh_file(path),
     }
     .map_err(|e| InputError(e.to_string()))?;
     if mesh.triangles.is_empty() {

@@ -26,7 +26,7 @@ pub struct InfoArgs {
 /// Runs `arbor info`.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let (name, scene) = match &args.input {
-        Some(path) if arbor::model::is_model_path(path) => return run_model(path, args.depth),
+        Some(path) if arbor::load::is_model_path(path) => return run_model(path, args.depth),
         Some(path) => {
             let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
             for w in &loaded.warnings {
@@ -48,7 +48,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
 /// the report of the framed scene `arbor render` would draw.
 fn run_model(path: &std::path::Path, depth: usize) -> anyhow::Result<()> {
     let (scene, model) =
-        arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
+        arbor::load::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
     for w in &model.warnings {
         eprintln!("{w}");
     }

@@ -312,9 +312,9 @@ fn print_ray_stats(
 /// extension in any case) becomes a framed scene; anything else is read as
 /// a Cornell XML scene.
 pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
-    if arbor::model::is_model_path(path) {
+    if arbor::load::is_model_path(path) {
         let (scene, model) =
-            arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
+            arbor::load::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
         return Ok(arbor::xml::LoadedScene {
             scene,
             warnings: model.warnings,

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use arbor::mesh::load_mesh_file;
+use arbor::load::load_mesh_file;
 use arbor_accel::{
     intersect_triangle_sheared, one_octant, Accel, AccelKind, Accelerator, MeshHit, NoCounters,
     Ray, RayShear, TriangleBvh, TriangleMesh, Vec3, PACKET,

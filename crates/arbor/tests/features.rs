@@ -203,7 +203,7 @@ fn deep_nesting_is_a_clean_error_not_a_stack_overflow() {
 
 #[test]
 fn non_finite_vertices_are_dropped_not_traced() {
-    use arbor::mesh::MeshData;
+    use arbor::load::MeshData;
     use arbor::surface::{MeshSurface, Surface};
     use glam::Vec3;
     let mut scene = load("<scene><camera/><image>2 2</image></scene>");
@@ -248,7 +248,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
 /// disagree with it are left alone when they already face the ray.
 #[test]
 fn two_sided_meshes_turn_the_normal_to_the_ray() {
-    use arbor::mesh::MeshData;
+    use arbor::load::MeshData;
     use arbor::shader::Shader;
     use arbor::surface::{MeshSurface, Surface};
     use glam::Vec3;
@@ -311,7 +311,7 @@ fn imported_models_are_two_sided() {
     )
     .unwrap();
     for path in [obj, stl] {
-        let model = arbor::model::load_model(&path).unwrap();
+        let model = arbor::load::load_model(&path).unwrap();
         assert!(!model.surfaces.is_empty());
         for s in &model.surfaces {
             match s {

@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::mesh::MeshError;
-use arbor::model::{frame, load_model, load_model_scene};
+use arbor::load::MeshError;
+use arbor::load::{frame, load_model, load_model_scene};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
 

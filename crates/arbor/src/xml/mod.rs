@@ -17,8 +17,8 @@ use roxmltree::{Document, Node};
 
 use crate::camera::{Camera, CameraKind};
 use crate::light::Light;
-use crate::mesh::obj::{load_obj, ObjRule};
-use crate::mesh::{msh::load_msh, MeshData, MeshError};
+use crate::load::obj_exact::{load_obj, ObjRule};
+use crate::load::{msh::load_msh, MeshData, MeshError};
 use crate::scene::{Scene, Variant};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::transformed::{rotation_degrees, scaling, translation};
@@ -1035,7 +1035,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 }
                 obj.mesh
             }
-            Some("ply" | "stl") => crate::model::load_mesh_data(&path).map_err(SceneError::Mesh)?,
+            Some("ply" | "stl") => crate::load::load_mesh_data(&path).map_err(SceneError::Mesh)?,
             _ => {
                 return Err(self.error(
                     at,

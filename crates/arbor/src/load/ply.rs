@@ -18,7 +18,7 @@ use glam::Vec3;
 
 use super::short;
 use super::triangulate::triangulate;
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{MeshData, MeshError};
 
 /// Reads the PLY file at `path`.
 pub fn load(path: &Path) -> Result<MeshData, MeshError> {

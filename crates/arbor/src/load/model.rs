@@ -1,8 +1,8 @@
 //! Model import: the files people have (OBJ with MTL materials, PLY, STL,
 //! glTF 2.0) turned into a renderable [`Scene`] with an automatic camera,
-//! a ground plane and default lights ([`frame`]).
+//! a ground plane and default lights ([`super::frame`]).
 //!
-//! The readers here are general importers, unlike [`crate::mesh::obj`],
+//! The readers here are general importers, unlike [`crate::load::obj_exact`],
 //! whose two exact numbering rules serve the Cornell scenes and the ray/hit
 //! interface and must not change. Every reader treats its input as
 //! untrusted: errors name the file (and the line, for text formats), counts
@@ -16,20 +16,14 @@ use glam::{DVec3, Vec3};
 
 use crate::camera::Camera;
 use crate::light::Light;
-use crate::mesh::{MeshData, MeshError};
+use super::{gltf, obj_import as obj, ply, stl};
+use crate::load::{MeshData, MeshError};
 use crate::scene::Scene;
 use crate::shader::Shader;
 use crate::surface::{MeshSurface, Surface};
 
-pub mod frame;
-pub mod gltf;
-pub mod obj;
-pub mod ply;
-pub mod stl;
-pub mod triangulate;
-
 /// A model as imported: its surfaces, and what the file says about viewing
-/// it, before [`frame::scene_for`] adds what the file leaves out.
+/// it, before [`super::frame::scene_for`] adds what the file leaves out.
 #[derive(Clone, Debug, Default)]
 pub struct Model {
     /// Top-level surfaces (meshes, or groups placing shared meshes).
@@ -93,16 +87,16 @@ pub fn load_model(path: &Path) -> Result<Model, MeshError> {
 }
 
 /// Imports the model at `path` and builds the scene that frames it
-/// ([`frame::scene_for`]). The warnings are the import's.
+/// ([`super::frame::scene_for`]). The warnings are the import's.
 pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), MeshError> {
     let model = load_model(path)?;
-    let scene = frame::scene_for(&model)
+    let scene = super::frame::scene_for(&model)
         .ok_or_else(|| MeshError::file(path, "the model has no triangles with finite size"))?;
     Ok((scene, model))
 }
 
 /// Reads a PLY or STL file as one mesh, for `<data>` of a `Mesh` in the XML
-/// scene format (OBJ there keeps the Cornell 2015 rule of [`crate::mesh`]).
+/// scene format (OBJ there keeps the Cornell 2015 rule of [`crate::load::obj_exact`]).
 pub fn load_mesh_data(path: &Path) -> Result<MeshData, MeshError> {
     match lower_extension(path).as_deref() {
         Some("ply") => ply::load(path),
@@ -162,13 +156,13 @@ fn z_up_to_y_up(mut mesh: MeshData) -> MeshData {
 }
 
 /// Reads a whole file, naming it in the error.
-fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
+pub(super) fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
     std::fs::read(path).map_err(|e| MeshError::file(path, format!("cannot read the file: {e}")))
 }
 
 /// Drops per-vertex normals that are unusable (a zero or non-finite vector
 /// anywhere would give a NaN shading normal) and returns whether it did.
-fn sanitize_normals(mesh: &mut MeshData) -> bool {
+pub(super) fn sanitize_normals(mesh: &mut MeshData) -> bool {
     if let Some(ns) = &mesh.normals {
         let bad = ns.len() != mesh.positions.len()
             || ns
@@ -184,7 +178,7 @@ fn sanitize_normals(mesh: &mut MeshData) -> bool {
 
 /// Whether every position is finite (infinite or NaN coordinates would
 /// poison the bounds and the acceleration structure).
-fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshError> {
+pub(super) fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshError> {
     match positions.iter().position(|p| !p.is_finite()) {
         Some(i) => Err(MeshError::file(
             path,
@@ -199,7 +193,7 @@ fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshError> {
 
 /// A token cut to a readable length for an error message (a malformed file
 /// may have a megabyte on one line).
-fn short(token: &str) -> String {
+pub(super) fn short(token: &str) -> String {
     const MAX: usize = 40;
     if token.chars().count() <= MAX {
         token.to_string()

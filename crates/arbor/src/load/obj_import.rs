@@ -35,7 +35,7 @@ use glam::{DVec3, Vec2, Vec3};
 
 use super::triangulate::triangulate;
 use super::{default_shader, short, Model, ModelStats};
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{MeshData, MeshError};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
 use crate::texture::{Texture, Wrap};

@@ -14,7 +14,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::short;
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{MeshData, MeshError};
 
 /// Size of a binary STL header plus its triangle count.
 const BINARY_HEADER: usize = 84;

@@ -30,7 +30,7 @@ use gltf::mesh::Mode;
 use super::{Model, ModelStats};
 use crate::camera::{Camera, CameraKind};
 use crate::flatten::DEFAULT_MAX_PLACEMENTS;
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{MeshData, MeshError};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
 use crate::texture::{Texture, Wrap};

@@ -5,11 +5,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-pub mod msh;
-pub mod obj;
-
-pub use msh::{load_msh, parse_msh};
-pub use obj::{load_obj, parse_obj, ObjMesh, ObjRule};
+use super::{load_msh, load_obj, ObjRule};
 
 /// An indexed triangle mesh as read from a file: positions and optional
 /// per-vertex normals and texture coordinates, all `f32` as the files store
@@ -91,7 +87,7 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshData, MeshError> {
 /// Reads a whole text file. Bytes that are not UTF-8 become U+FFFD: they can
 /// only matter where a number is expected, and there they fail with a
 /// line-accurate error, while stray bytes in comments stay harmless.
-fn read_text(path: &Path) -> Result<String, MeshError> {
+pub(super) fn read_text(path: &Path) -> Result<String, MeshError> {
     match std::fs::read(path) {
         Ok(bytes) => Ok(match String::from_utf8(bytes) {
             Ok(text) => text,
