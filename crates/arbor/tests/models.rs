@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::load::MeshError;
+use arbor::load::LoadError;
 use arbor::load::{frame, load_model, load_model_scene};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
@@ -247,7 +247,7 @@ fn concave_face_is_ear_clipped() {
     assert!(!covers);
 }
 
-fn err(path: &Path) -> MeshError {
+fn err(path: &Path) -> LoadError {
     match load_model_scene(path) {
         Ok(_) => panic!("{} loaded", path.display()),
         Err(e) => e,

@@ -30,14 +30,14 @@ use gltf::mesh::Mode;
 use super::{Model, ModelStats};
 use crate::camera::{Camera, CameraKind};
 use crate::flatten::DEFAULT_MAX_PLACEMENTS;
-use crate::load::{MeshData, MeshError};
+use crate::load::{LoadError, MeshData};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
 use crate::texture::{Texture, Wrap};
 
 /// Imports the glTF or GLB file at `path`, external buffers resolved
 /// beside it.
-pub fn load(path: &Path) -> Result<Model, MeshError> {
+pub fn load(path: &Path) -> Result<Model, LoadError> {
     let bytes = super::read_bytes(path)?;
     parse(&bytes, path, Some(path.parent().unwrap_or(Path::new("."))))
 }
@@ -45,9 +45,9 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
 /// Imports glTF JSON or GLB bytes; `path` is only used in messages. Buffers
 /// given by a relative or `file:` URI are read from the folder `base`;
 /// without one only embedded buffers (GLB binary chunk, `data:` URIs) load.
-pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, MeshError> {
+pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, LoadError> {
     if bytes.is_empty() {
-        return Err(MeshError::file(path, "the file is empty"));
+        return Err(LoadError::file(path, "the file is empty"));
     }
     // A GLB header's total length below the header's own 12 bytes: the
     // crate subtracts 12 from it unchecked (an overflow panic in a debug
@@ -55,14 +55,14 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     if bytes.starts_with(b"glTF") {
         if let Some(&[a, b, c, d]) = bytes.get(8..12) {
             if u32::from_le_bytes([a, b, c, d]) < 12 {
-                return Err(MeshError::file(
+                return Err(LoadError::file(
                     path,
                     "the GLB header gives a length shorter than the header",
                 ));
             }
         }
     }
-    let invalid = |e: gltf::Error| MeshError::file(path, format!("not a valid glTF 2.0 file: {e}"));
+    let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
     // POSITION before checking that index: check it first.
@@ -73,7 +73,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
                 gltf::Semantic::Positions,
             ));
             if position.is_some_and(|a| a.value() >= json.accessors.len()) {
-                return Err(MeshError::file(
+                return Err(LoadError::file(
                     path,
                     format!("mesh {m}: POSITION names an accessor that does not exist"),
                 ));
@@ -83,7 +83,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     gltf.document = gltf::Document::from_json(gltf.document.into_json()).map_err(invalid)?;
     check_buffer_uris(&gltf.document, path, base)?;
     let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())
-        .map_err(|e| MeshError::file(path, format!("cannot load a buffer: {e}")))?;
+        .map_err(|e| LoadError::file(path, format!("cannot load a buffer: {e}")))?;
     Importer {
         path,
         base,
@@ -112,12 +112,12 @@ fn check_buffer_uris(
     doc: &gltf::Document,
     path: &Path,
     base: Option<&Path>,
-) -> Result<(), MeshError> {
+) -> Result<(), LoadError> {
     for buffer in doc.buffers() {
         let gltf::buffer::Source::Uri(uri) = buffer.source() else {
             continue;
         };
-        let fail = |why: &str| MeshError::file(path, format!("buffer {}: {why}", buffer.index()));
+        let fail = |why: &str| LoadError::file(path, format!("buffer {}: {why}", buffer.index()));
         // data: URIs, schemes the crate refuses, and relative URIs without a
         // base folder (the crate refuses external buffers then) are left to
         // the crate.
@@ -211,11 +211,11 @@ struct Importer<'a> {
 }
 
 impl Importer<'_> {
-    fn err(&self, m: impl Into<String>) -> MeshError {
-        MeshError::file(self.path, m)
+    fn err(&self, m: impl Into<String>) -> LoadError {
+        LoadError::file(self.path, m)
     }
 
-    fn run(mut self) -> Result<Model, MeshError> {
+    fn run(mut self) -> Result<Model, LoadError> {
         let roots: Vec<usize> = match self
             .doc
             .default_scene()
@@ -265,7 +265,7 @@ impl Importer<'_> {
 
     /// Fails on a node reachable from itself (the format forbids it; a
     /// cycle would make the hierarchy infinite).
-    fn check_cycles(&self, roots: &[usize]) -> Result<(), MeshError> {
+    fn check_cycles(&self, roots: &[usize]) -> Result<(), LoadError> {
         // 0 unvisited, 1 on the current path, 2 done.
         let mut state = vec![0u8; self.doc.nodes().len()];
         let nodes: Vec<gltf::Node> = self.doc.nodes().collect();
@@ -316,7 +316,7 @@ impl Importer<'_> {
 
     /// The group for node `n` (`None` when nothing under it has geometry);
     /// `world` is the parents' matrix (for the camera).
-    fn node(&mut self, n: usize, world: DMat4) -> Result<Option<Surface>, MeshError> {
+    fn node(&mut self, n: usize, world: DMat4) -> Result<Option<Surface>, LoadError> {
         let Some(node) = self.doc.nodes().nth(n) else {
             return Ok(None);
         };
@@ -391,7 +391,7 @@ impl Importer<'_> {
     }
 
     /// The shared surface for a mesh (built on first use).
-    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Option<Arc<Surface>>, MeshError> {
+    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Option<Arc<Surface>>, LoadError> {
         if let Some(s) = self.meshes.get(&mesh.index()) {
             return Ok(Some(s.clone()));
         }
@@ -448,7 +448,7 @@ impl Importer<'_> {
         mesh: usize,
         accessor: &gltf::Accessor,
         usage: Usage,
-    ) -> Result<(), MeshError> {
+    ) -> Result<(), LoadError> {
         use gltf::accessor::{DataType, Dimensions};
         let fail =
             |why: &str| self.err(format!("mesh {mesh}: accessor {} {why}", accessor.index()));
@@ -598,7 +598,7 @@ impl Importer<'_> {
         }
     }
 
-    fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, MeshError> {
+    fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, LoadError> {
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             return Err(self.err(format!("mesh {mesh}: a primitive has no POSITION")));
         };

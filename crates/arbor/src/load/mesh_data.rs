@@ -1,11 +1,10 @@
 //! Triangle meshes as loaded from files, before they enter a scene.
 
-use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::{load_msh, load_obj, ObjRule};
+use super::{load_msh, load_obj, LoadError, ObjRule};
 
 /// An indexed triangle mesh as read from a file: positions and optional
 /// per-vertex normals and texture coordinates, all `f32` as the files store
@@ -22,54 +21,11 @@ pub struct MeshData {
     pub triangles: Vec<[u32; 3]>,
 }
 
-/// An error while reading a mesh file: the file, the 1-based line when one
-/// applies, and what was expected. Displays as `FILE:LINE: message`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct MeshError {
-    /// The mesh file.
-    pub path: PathBuf,
-    /// 1-based line, when the error belongs to one.
-    pub line: Option<usize>,
-    /// What went wrong and what was expected.
-    pub message: String,
-}
-
-impl MeshError {
-    /// An error at `line` (1-based) of `path`.
-    pub fn at(path: &Path, line: usize, message: impl Into<String>) -> Self {
-        MeshError {
-            path: path.to_path_buf(),
-            line: Some(line),
-            message: message.into(),
-        }
-    }
-
-    /// An error about the file as a whole.
-    pub fn file(path: &Path, message: impl Into<String>) -> Self {
-        MeshError {
-            path: path.to_path_buf(),
-            line: None,
-            message: message.into(),
-        }
-    }
-}
-
-impl fmt::Display for MeshError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.line {
-            Some(line) => write!(f, "{}:{}: {}", self.path.display(), line, self.message),
-            None => write!(f, "{}: {}", self.path.display(), self.message),
-        }
-    }
-}
-
-impl std::error::Error for MeshError {}
-
 /// Reads a mesh file for batch ray casting, choosing the reader by extension
 /// (case-insensitive): `.msh` is the Cornell format, `.obj` is read with
 /// [`ObjRule::Fan`] so that triangles are numbered as the ray/hit file
 /// interface (and Embree's `embree_trace`) number them.
-pub fn load_mesh_file(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load_mesh_file(path: &Path) -> Result<MeshData, LoadError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -77,25 +33,9 @@ pub fn load_mesh_file(path: &Path) -> Result<MeshData, MeshError> {
     match ext.as_deref() {
         Some("msh") => load_msh(path),
         Some("obj") => load_obj(path, ObjRule::Fan).map(|m| m.mesh),
-        _ => Err(MeshError::file(
+        _ => Err(LoadError::file(
             path,
             "unknown mesh file type; expected a .msh or .obj file",
-        )),
-    }
-}
-
-/// Reads a whole text file. Bytes that are not UTF-8 become U+FFFD: they can
-/// only matter where a number is expected, and there they fail with a
-/// line-accurate error, while stray bytes in comments stay harmless.
-pub(super) fn read_text(path: &Path) -> Result<String, MeshError> {
-    match std::fs::read(path) {
-        Ok(bytes) => Ok(match String::from_utf8(bytes) {
-            Ok(text) => text,
-            Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
-        }),
-        Err(e) => Err(MeshError::file(
-            path,
-            format!("cannot read the mesh file: {e}"),
         )),
     }
 }
@@ -103,6 +43,7 @@ pub(super) fn read_text(path: &Path) -> Result<String, MeshError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     /// `../shared/scenes/cornell-2010/TEST_B`, or `None` (after printing why)
     /// when the shared data is absent and `ARBOR_REQUIRE_TEST_DATA=1` is not set.

@@ -14,10 +14,10 @@ use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
 
+use super::{gltf, obj_import as obj, ply, stl};
 use crate::camera::Camera;
 use crate::light::Light;
-use super::{gltf, obj_import as obj, ply, stl};
-use crate::load::{MeshData, MeshError};
+use crate::load::{LoadError, MeshData};
 use crate::scene::Scene;
 use crate::shader::Shader;
 use crate::surface::{MeshSurface, Surface};
@@ -73,13 +73,13 @@ pub fn lower_extension(path: &Path) -> Option<String> {
 }
 
 /// Imports the model at `path`, choosing the reader by extension (any case).
-pub fn load_model(path: &Path) -> Result<Model, MeshError> {
+pub fn load_model(path: &Path) -> Result<Model, LoadError> {
     match lower_extension(path).as_deref() {
         Some("obj") => obj::load(path),
         Some("ply") => Ok(single_mesh(ply::load(path)?)),
         Some("stl") => Ok(single_mesh(z_up_to_y_up(stl::load(path)?))),
         Some("gltf") | Some("glb") => gltf::load(path),
-        _ => Err(MeshError::file(
+        _ => Err(LoadError::file(
             path,
             "unknown model file type; expected .obj, .ply, .stl, .gltf or .glb",
         )),
@@ -88,20 +88,20 @@ pub fn load_model(path: &Path) -> Result<Model, MeshError> {
 
 /// Imports the model at `path` and builds the scene that frames it
 /// ([`super::frame::scene_for`]). The warnings are the import's.
-pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), MeshError> {
+pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), LoadError> {
     let model = load_model(path)?;
     let scene = super::frame::scene_for(&model)
-        .ok_or_else(|| MeshError::file(path, "the model has no triangles with finite size"))?;
+        .ok_or_else(|| LoadError::file(path, "the model has no triangles with finite size"))?;
     Ok((scene, model))
 }
 
 /// Reads a PLY or STL file as one mesh, for `<data>` of a `Mesh` in the XML
 /// scene format (OBJ there keeps the Cornell 2015 rule of [`crate::load::obj_exact`]).
-pub fn load_mesh_data(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load_mesh_data(path: &Path) -> Result<MeshData, LoadError> {
     match lower_extension(path).as_deref() {
         Some("ply") => ply::load(path),
         Some("stl") => stl::load(path),
-        _ => Err(MeshError::file(
+        _ => Err(LoadError::file(
             path,
             "unknown mesh file type; expected .ply or .stl",
         )),
@@ -155,11 +155,6 @@ fn z_up_to_y_up(mut mesh: MeshData) -> MeshData {
     mesh
 }
 
-/// Reads a whole file, naming it in the error.
-pub(super) fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshError> {
-    std::fs::read(path).map_err(|e| MeshError::file(path, format!("cannot read the file: {e}")))
-}
-
 /// Drops per-vertex normals that are unusable (a zero or non-finite vector
 /// anywhere would give a NaN shading normal) and returns whether it did.
 pub(super) fn sanitize_normals(mesh: &mut MeshData) -> bool {
@@ -178,9 +173,9 @@ pub(super) fn sanitize_normals(mesh: &mut MeshData) -> bool {
 
 /// Whether every position is finite (infinite or NaN coordinates would
 /// poison the bounds and the acceleration structure).
-pub(super) fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshError> {
+pub(super) fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), LoadError> {
     match positions.iter().position(|p| !p.is_finite()) {
-        Some(i) => Err(MeshError::file(
+        Some(i) => Err(LoadError::file(
             path,
             format!(
                 "vertex {} has a coordinate that is not a finite number",
@@ -188,17 +183,5 @@ pub(super) fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), MeshEr
             ),
         )),
         None => Ok(()),
-    }
-}
-
-/// A token cut to a readable length for an error message (a malformed file
-/// may have a megabyte on one line).
-pub(super) fn short(token: &str) -> String {
-    const MAX: usize = 40;
-    if token.chars().count() <= MAX {
-        token.to_string()
-    } else {
-        let cut: String = token.chars().take(MAX).collect();
-        format!("{cut}...")
     }
 }

@@ -14,8 +14,8 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::msh::shorten;
-use super::{MeshData, MeshError};
+use super::shorten;
+use super::{LoadError, MeshData};
 
 /// Which triangles an OBJ file yields, and how they are numbered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -51,13 +51,13 @@ pub struct ObjMesh {
 
 /// Reads an OBJ file under `rule`. Every error names the file and, where one
 /// applies, the 1-based line.
-pub fn load_obj(path: &Path, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+pub fn load_obj(path: &Path, rule: ObjRule) -> Result<ObjMesh, LoadError> {
     let text = super::read_text(path)?;
     parse_obj(&text, path, rule)
 }
 
 /// Parses OBJ text under `rule`; `path` is only used in error messages.
-pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<ObjMesh, LoadError> {
     let mut reader = Reader::new(path, rule);
     for (i, line) in text.split('\n').enumerate() {
         let line = line.strip_suffix('\r').unwrap_or(line);
@@ -141,11 +141,11 @@ impl<'p> Reader<'p> {
         }
     }
 
-    fn err(&self, line: usize, message: impl Into<String>) -> MeshError {
-        MeshError::at(self.path, line, message)
+    fn err(&self, line: usize, message: impl Into<String>) -> LoadError {
+        LoadError::at(self.path, line, message)
     }
 
-    fn line(&mut self, line_no: usize, line: &str) -> Result<(), MeshError> {
+    fn line(&mut self, line_no: usize, line: &str) -> Result<(), LoadError> {
         let mut tokens = line.split_whitespace();
         let Some(kind) = tokens.next() else {
             return Ok(());
@@ -185,7 +185,7 @@ impl<'p> Reader<'p> {
         kind: &str,
         rest: &[&str],
         exact: bool,
-    ) -> Result<[f32; N], MeshError> {
+    ) -> Result<[f32; N], LoadError> {
         if rest.len() < N || (exact && rest.len() > N) {
             let need = if exact { "exactly" } else { "at least" };
             return Err(self.err(
@@ -231,7 +231,7 @@ impl<'p> Reader<'p> {
         token: &str,
         target: Target,
         allow_negative: bool,
-    ) -> Result<u32, MeshError> {
+    ) -> Result<u32, LoadError> {
         let noun = target.noun();
         let Ok(written) = token.parse::<i64>() else {
             return Err(self.err(
@@ -288,7 +288,7 @@ impl<'p> Reader<'p> {
         Ok((written - 1) as u32)
     }
 
-    fn cornell_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), MeshError> {
+    fn cornell_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), LoadError> {
         if corners.len() > 3 {
             // The 2015 framework drops polygons; the caller may warn.
             self.skipped += 1;
@@ -343,7 +343,7 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
-    fn fan_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), MeshError> {
+    fn fan_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), LoadError> {
         if corners.len() < 3 {
             return Err(self.err(
                 line_no,
@@ -366,7 +366,7 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
-    fn finish(self) -> Result<ObjMesh, MeshError> {
+    fn finish(self) -> Result<ObjMesh, LoadError> {
         // Forward references are in file order, so the first bad one is reported.
         for p in &self.pending {
             let defined = self.defined(p.target);
@@ -429,11 +429,11 @@ impl<'p> Reader<'p> {
 mod tests {
     use super::*;
 
-    fn parse(text: &str, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+    fn parse(text: &str, rule: ObjRule) -> Result<ObjMesh, LoadError> {
         parse_obj(text, Path::new("m.obj"), rule)
     }
 
-    fn err(text: &str, rule: ObjRule) -> MeshError {
+    fn err(text: &str, rule: ObjRule) -> LoadError {
         parse(text, rule).expect_err("expected an error")
     }
 

@@ -34,14 +34,14 @@ use std::sync::Arc;
 use glam::{DVec3, Vec2, Vec3};
 
 use super::triangulate::triangulate;
-use super::{default_shader, short, Model, ModelStats};
-use crate::load::{MeshData, MeshError};
+use super::{default_shader, shorten, Model, ModelStats};
+use crate::load::{LoadError, MeshData};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
 use crate::texture::{Texture, Wrap};
 
 /// Imports the OBJ file at `path` with its material library.
-pub fn load(path: &Path) -> Result<Model, MeshError> {
+pub fn load(path: &Path) -> Result<Model, LoadError> {
     let bytes = super::read_bytes(path)?;
     let text = String::from_utf8_lossy(&bytes);
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
@@ -63,7 +63,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
                 Err(tobj::LoadError::OpenFileFailed)
             }
         })
-        .map_err(|e| MeshError::file(path, format!("malformed OBJ file: {e}")))?;
+        .map_err(|e| LoadError::file(path, format!("malformed OBJ file: {e}")))?;
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -163,7 +163,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         ));
     }
     if surfaces.is_empty() {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no faces to render (an empty file or a point cloud?)",
         ));
@@ -303,7 +303,7 @@ fn lenient_number(token: &str) -> Option<(f32, bool)> {
 /// Checks the lines `tobj` would reject or misread and returns the text to
 /// give it: vertex lines re-printed with clean numbers, bad `f` lines
 /// reported with their line number.
-fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, MeshError> {
+fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, LoadError> {
     let mut out = String::with_capacity(text.len() + 64);
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
     let mut faces = 0usize;
@@ -325,10 +325,10 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             let mut values = Vec::with_capacity(3);
             for tok in tokens.by_ref().take(if keyword == "vt" { 2 } else { 3 }) {
                 let Some((v, odd)) = lenient_number(tok) else {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
-                        format!("'{keyword}' expects numbers, found '{}'", short(tok)),
+                        format!("'{keyword}' expects numbers, found '{}'", shorten(tok)),
                     ));
                 };
                 if odd {
@@ -340,7 +340,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                 values.push(v);
             }
             if values.len() < needed {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     path,
                     line_no,
                     format!("'{keyword}' expects {needed} numbers or more"),
@@ -369,10 +369,10 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             for c in &corners {
                 let parts: Vec<&str> = c.split('/').collect();
                 if parts.len() > 3 || parts[0].is_empty() {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
-                        format!("malformed face corner '{}'", short(c)),
+                        format!("malformed face corner '{}'", shorten(c)),
                     ));
                 }
                 for (k, (part, count, noun)) in parts
@@ -385,10 +385,10 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                         continue;
                     }
                     let Ok(idx) = part.parse::<i64>() else {
-                        return Err(MeshError::at(
+                        return Err(LoadError::at(
                             path,
                             line_no,
-                            format!("malformed face corner '{}'", short(c)),
+                            format!("malformed face corner '{}'", shorten(c)),
                         ));
                     };
                     // 1-based; negative counts back from the last one defined.
@@ -398,7 +398,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                         idx < 0 && -idx <= count
                     };
                     if !ok {
-                        return Err(MeshError::at(
+                        return Err(LoadError::at(
                             path,
                             line_no,
                             format!(
@@ -426,7 +426,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
         ));
     }
     if faces == 0 {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             if nv == 0 {
                 "the file has no vertices and no faces (is it empty?)"

@@ -16,12 +16,12 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::short;
+use super::shorten;
 use super::triangulate::triangulate;
-use crate::load::{MeshData, MeshError};
+use crate::load::{LoadError, MeshData};
 
 /// Reads the PLY file at `path`.
-pub fn load(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load(path: &Path) -> Result<MeshData, LoadError> {
     let bytes = super::read_bytes(path)?;
     parse(&bytes, path)
 }
@@ -117,9 +117,9 @@ struct Header {
     data_start: usize,
 }
 
-fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
+fn read_header(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
     if bytes.is_empty() {
-        return Err(MeshError::file(path, "the file is empty"));
+        return Err(LoadError::file(path, "the file is empty"));
     }
     let mut pos = 0;
     let mut line_no = 0;
@@ -127,7 +127,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
     let mut elements: Vec<ElementHeader> = Vec::new();
     loop {
         let Some(len) = bytes[pos..].iter().position(|&b| b == b'\n') else {
-            return Err(MeshError::file(path, "the header has no 'end_header' line"));
+            return Err(LoadError::file(path, "the header has no 'end_header' line"));
         };
         let line = String::from_utf8_lossy(&bytes[pos..pos + len]);
         pos += len + 1;
@@ -136,7 +136,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
         let keyword = tokens.next().unwrap_or("");
         if line_no == 1 {
             if keyword != "ply" {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     path,
                     1,
                     "not a PLY file (it must start with 'ply')",
@@ -144,7 +144,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
             }
             continue;
         }
-        let bad = |m: String| MeshError::at(path, line_no, m);
+        let bad = |m: String| LoadError::at(path, line_no, m);
         match keyword {
             "format" => {
                 format = Some(match tokens.next() {
@@ -154,7 +154,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
                     other => {
                         return Err(bad(format!(
                             "unknown PLY format '{}'",
-                            short(other.unwrap_or(""))
+                            shorten(other.unwrap_or(""))
                         )))
                     }
                 });
@@ -189,15 +189,16 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
                         _ => {
                             return Err(bad(format!(
                                 "unknown list types '{} {}'",
-                                short(count_ty),
-                                short(item_ty)
+                                shorten(count_ty),
+                                shorten(item_ty)
                             )))
                         }
                     }
                 } else {
                     Prop {
-                        ty: Ty::parse(ty)
-                            .ok_or_else(|| bad(format!("unknown property type '{}'", short(ty))))?,
+                        ty: Ty::parse(ty).ok_or_else(|| {
+                            bad(format!("unknown property type '{}'", shorten(ty)))
+                        })?,
                         name: tokens.next().unwrap_or("").to_string(),
                         list_count: None,
                     }
@@ -210,7 +211,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
         }
     }
     let Some(format) = format else {
-        return Err(MeshError::file(path, "the header has no 'format' line"));
+        return Err(LoadError::file(path, "the header has no 'format' line"));
     };
     Ok(Header {
         format,
@@ -235,17 +236,17 @@ impl Data<'_> {
         self.bytes.len() - self.pos
     }
 
-    fn error(&self, message: impl Into<String>) -> MeshError {
+    fn error(&self, message: impl Into<String>) -> LoadError {
         match self.format {
-            Format::Ascii => MeshError::at(self.path, self.line, message),
-            _ => MeshError::file(
+            Format::Ascii => LoadError::at(self.path, self.line, message),
+            _ => LoadError::file(
                 self.path,
                 format!("at byte {}: {}", self.pos, message.into()),
             ),
         }
     }
 
-    fn value(&mut self, ty: Ty) -> Result<f64, MeshError> {
+    fn value(&mut self, ty: Ty) -> Result<f64, LoadError> {
         if self.format == Format::Ascii {
             return self.ascii_value(ty);
         }
@@ -287,7 +288,7 @@ impl Data<'_> {
         }
     }
 
-    fn ascii_value(&mut self, ty: Ty) -> Result<f64, MeshError> {
+    fn ascii_value(&mut self, ty: Ty) -> Result<f64, LoadError> {
         self.skip_space();
         let start = self.pos;
         while self
@@ -313,14 +314,14 @@ impl Data<'_> {
                 } else {
                     "an integer"
                 },
-                short(&token)
+                shorten(&token)
             ))
         })
     }
 }
 
 /// Parses PLY bytes; `path` is only used in error messages.
-pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
+pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     let header = read_header(bytes, path)?;
     let ascii = header.format == Format::Ascii;
     // Every count against the data that is there, before anything is read.
@@ -329,7 +330,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     for e in &header.elements {
         needed = needed.saturating_add(e.count.saturating_mul(e.min_record(ascii).max(1)));
         if needed > available {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 format!(
@@ -346,7 +347,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             .any(|e| e.name == name && e.count > 0)
     };
     if !has("vertex") || !has("face") {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no vertices or no faces (a point cloud?); nothing to render",
         ));
@@ -377,14 +378,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             p.list_count.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
         if is_vertex && xyz.iter().any(Option::is_none) {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 "the vertex element has no x, y and z",
             ));
         }
         if is_face && corners_prop.is_none() {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 "the face element has no 'vertex_indices' list",
@@ -451,15 +452,15 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
                 "vertex index {bad} is out of range (the file has {n} vertices, numbered from 0)"
             );
             return Err(if ascii {
-                MeshError::at(path, *line, message)
+                LoadError::at(path, *line, message)
             } else {
-                MeshError::file(path, format!("face {}: {message}", k + 1))
+                LoadError::file(path, format!("face {}: {message}", k + 1))
             });
         }
         triangulate(&mesh.positions, corners, &mut mesh.triangles);
     }
     if mesh.triangles.is_empty() {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no faces with 3 or more corners",
         ));
