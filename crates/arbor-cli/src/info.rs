@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::load::Format;
 use arbor::scene::{Scene, Variant};
 use arbor::surface::Surface;
 use clap::Args;
@@ -26,9 +27,12 @@ pub struct InfoArgs {
 /// Runs `arbor info`.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let (name, scene) = match &args.input {
-        Some(path) if arbor::load::is_model_path(path) => return run_model(path, args.depth),
+        Some(path) if Format::from_path(path).is_ok_and(Format::is_model) => {
+            return run_model(path, args.depth)
+        }
         Some(path) => {
-            let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
+            let loaded =
+                arbor::load::load_cornell_scene(path).map_err(|e| InputError(e.to_string()))?;
             for w in &loaded.warnings {
                 eprintln!("{w}");
             }

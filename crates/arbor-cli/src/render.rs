@@ -308,19 +308,10 @@ fn print_ray_stats(
     }
 }
 
-/// Model import: a model file (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`, by
-/// extension in any case) becomes a framed scene; anything else is read as
-/// a Cornell XML scene.
+/// What `arbor render` draws: a Cornell XML scene or a framed model, chosen
+/// by the loader's format registry.
 pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
-    if arbor::load::is_model_path(path) {
-        let (scene, model) =
-            arbor::load::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
-        return Ok(arbor::xml::LoadedScene {
-            scene,
-            warnings: model.warnings,
-        });
-    }
-    arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()).into())
+    arbor::load::load_scene(path).map_err(|e| InputError(e.to_string()).into())
 }
 
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {

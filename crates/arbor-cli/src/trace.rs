@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use arbor::load::load_mesh_file;
+use arbor::load::load_ray_mesh;
 use arbor_accel::{
     intersect_triangle_sheared, one_octant, Accel, AccelKind, Accelerator, MeshHit, NoCounters,
     Ray, RayShear, TriangleBvh, TriangleMesh, Vec3, PACKET,
@@ -84,7 +84,7 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
             .map_err(|e| InputError(format!("--accel: {e}")))?,
         None => AccelKind::DEFAULT,
     };
-    let mesh = load_mesh_file(&args.mesh).map_err(|e| InputError(e.to_string()))?;
+    let mesh = load_ray_mesh(&args.mesh).map_err(|e| InputError(e.to_string()))?;
     let mesh = TriangleMesh::new(mesh.positions, mesh.triangles);
     let rays = read_rays(&args.rays)?;
     let mut output = args.hits.as_deref().map(AtomicOutput::create).transpose()?;

@@ -17,7 +17,7 @@ use glam::{DVec3, Vec3};
 use super::{gltf, obj_import as obj, ply, stl};
 use crate::camera::Camera;
 use crate::light::Light;
-use crate::load::{LoadError, MeshData};
+use crate::load::{Format, LoadError, MeshData};
 use crate::scene::Scene;
 use crate::shader::Shader;
 use crate::surface::{MeshSurface, Surface};
@@ -57,31 +57,19 @@ pub struct ModelStats {
     pub instanced_triangles: u64,
 }
 
-/// The file types [`load_model`] reads, by lower-case extension.
-pub const MODEL_EXTENSIONS: &[&str] = &["obj", "ply", "stl", "gltf", "glb"];
-
-/// Whether `path` has one of the [`MODEL_EXTENSIONS`] (in any case).
-pub fn is_model_path(path: &Path) -> bool {
-    lower_extension(path).is_some_and(|e| MODEL_EXTENSIONS.contains(&e.as_str()))
-}
-
-/// The extension of `path` in lower case.
-pub fn lower_extension(path: &Path) -> Option<String> {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
-}
-
-/// Imports the model at `path`, choosing the reader by extension (any case).
+/// Imports the model at `path`, choosing the reader by its [`Format`].
 pub fn load_model(path: &Path) -> Result<Model, LoadError> {
-    match lower_extension(path).as_deref() {
-        Some("obj") => obj::load(path),
-        Some("ply") => Ok(single_mesh(ply::load(path)?)),
-        Some("stl") => Ok(single_mesh(z_up_to_y_up(stl::load(path)?))),
-        Some("gltf") | Some("glb") => gltf::load(path),
-        _ => Err(LoadError::file(
+    match Format::from_path(path)? {
+        Format::Obj => obj::load(path),
+        Format::Ply => Ok(single_mesh(ply::load(path)?)),
+        Format::Stl => Ok(single_mesh(z_up_to_y_up(stl::load(path)?))),
+        Format::Gltf | Format::Glb => gltf::load(path),
+        other => Err(LoadError::file(
             path,
-            "unknown model file type; expected .obj, .ply, .stl, .gltf or .glb",
+            format!(
+                "a .{} file is not a model; expected .obj, .ply, .stl, .gltf or .glb",
+                other.extension()
+            ),
         )),
     }
 }
@@ -93,19 +81,6 @@ pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), LoadError> {
     let scene = super::frame::scene_for(&model)
         .ok_or_else(|| LoadError::file(path, "the model has no triangles with finite size"))?;
     Ok((scene, model))
-}
-
-/// Reads a PLY or STL file as one mesh, for `<data>` of a `Mesh` in the XML
-/// scene format (OBJ there keeps the Cornell 2015 rule of [`crate::load::obj_exact`]).
-pub fn load_mesh_data(path: &Path) -> Result<MeshData, LoadError> {
-    match lower_extension(path).as_deref() {
-        Some("ply") => ply::load(path),
-        Some("stl") => stl::load(path),
-        _ => Err(LoadError::file(
-            path,
-            "unknown mesh file type; expected .ply or .stl",
-        )),
-    }
 }
 
 /// The material every surface gets when the file gives none: a light grey

@@ -15,7 +15,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 
 use super::shorten;
-use super::{LoadError, MeshData};
+use super::{LoadError, LoadedMesh, MeshData};
 
 /// Which triangles an OBJ file yields, and how they are numbered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -23,7 +23,7 @@ pub enum ObjRule {
     /// The Cornell 2015 framework's reader (scene format §5.4): `v`/`vn` need
     /// exactly 4 tokens and `vt` exactly 3; an `f` line with exactly 3
     /// corners is a triangle, one with more is skipped (and counted in
-    /// [`ObjMesh::skipped_polygons`]); corners are `p`, `p/t`, `p/t/n` or
+    /// [`LoadedMesh::skipped_polygons`]); corners are `p`, `p/t`, `p/t/n` or
     /// `p//n`, 1-based, never negative; vertices are deduplicated by their
     /// (p, t, n) triple in order of first use; the mesh has normals (UVs) when
     /// any `vn` (`vt`) line is present. A corner without a normal (UV) in such
@@ -39,25 +39,15 @@ pub enum ObjRule {
     Fan,
 }
 
-/// An OBJ mesh and what the reader dropped.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ObjMesh {
-    /// The triangles.
-    pub mesh: MeshData,
-    /// `f` lines with more than 3 corners that [`ObjRule::Cornell2015`]
-    /// skipped, so that the caller can warn (always 0 for [`ObjRule::Fan`]).
-    pub skipped_polygons: usize,
-}
-
 /// Reads an OBJ file under `rule`. Every error names the file and, where one
 /// applies, the 1-based line.
-pub fn load_obj(path: &Path, rule: ObjRule) -> Result<ObjMesh, LoadError> {
+pub fn load_obj(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
     let text = super::read_text(path)?;
     parse_obj(&text, path, rule)
 }
 
 /// Parses OBJ text under `rule`; `path` is only used in error messages.
-pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<ObjMesh, LoadError> {
+pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
     let mut reader = Reader::new(path, rule);
     for (i, line) in text.split('\n').enumerate() {
         let line = line.strip_suffix('\r').unwrap_or(line);
@@ -366,7 +356,7 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
-    fn finish(self) -> Result<ObjMesh, LoadError> {
+    fn finish(self) -> Result<LoadedMesh, LoadError> {
         // Forward references are in file order, so the first bad one is reported.
         for p in &self.pending {
             let defined = self.defined(p.target);
@@ -418,7 +408,7 @@ impl<'p> Reader<'p> {
                 }
             }
         };
-        Ok(ObjMesh {
+        Ok(LoadedMesh {
             mesh,
             skipped_polygons: self.skipped,
         })
@@ -429,7 +419,7 @@ impl<'p> Reader<'p> {
 mod tests {
     use super::*;
 
-    fn parse(text: &str, rule: ObjRule) -> Result<ObjMesh, LoadError> {
+    fn parse(text: &str, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
         parse_obj(text, Path::new("m.obj"), rule)
     }
 

@@ -17,8 +17,7 @@ use roxmltree::{Document, Node};
 
 use crate::camera::{Camera, CameraKind};
 use crate::light::Light;
-use crate::load::obj_exact::{load_obj, ObjRule};
-use crate::load::{msh::load_msh, LoadError, MeshData};
+use crate::load::{load_mesh, Format, LoadError, MeshData, ObjRule};
 use crate::scene::{Scene, Variant};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::transformed::{rotation_degrees, scaling, translation};
@@ -964,34 +963,28 @@ impl<'a, 'input> Loader<'a, 'input> {
         if !path.is_file() {
             return Err(self.error(at, format!("mesh file '{}' not found", path.display())));
         }
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let data = match ext.as_deref() {
-            Some("msh") => load_msh(&path)?,
-            Some("obj") => {
-                let obj = load_obj(&path, ObjRule::Cornell2015)?;
-                if obj.skipped_polygons > 0 {
-                    self.warn(
-                        at,
-                        format!(
-                            "{}: skipped {} faces with more than 3 corners (the 2015 reader accepts triangles only)",
-                            path.display(),
-                            obj.skipped_polygons
-                        ),
-                    );
-                }
-                obj.mesh
-            }
-            Some("ply" | "stl") => crate::load::load_mesh_data(&path)?,
-            _ => {
-                return Err(self.error(
-                    at,
-                    format!("mesh file '{file}' has an unknown type; expected a .msh, .obj, .ply or .stl file"),
-                ))
-            }
-        };
+        let format = Format::from_path(&path).map_err(|e| self.error(at, e.to_string()))?;
+        if !format.is_mesh() {
+            return Err(self.error(
+                at,
+                format!(
+                    "mesh file '{file}' is a .{} file; expected a .msh, .obj, .ply or .stl mesh",
+                    format.extension()
+                ),
+            ));
+        }
+        let loaded = load_mesh(&path, ObjRule::Cornell2015)?;
+        if loaded.skipped_polygons > 0 {
+            self.warn(
+                at,
+                format!(
+                    "{}: skipped {} faces with more than 3 corners (the 2015 reader accepts triangles only)",
+                    path.display(),
+                    loaded.skipped_polygons
+                ),
+            );
+        }
+        let data = loaded.mesh;
         let data = Arc::new(data);
         self.meshes.insert(path, data.clone());
         Ok(data)
