@@ -122,3 +122,31 @@ fn info_reports_the_engine_structure() {
         "{out}"
     );
 }
+
+#[test]
+fn unknown_extensions_are_refused_before_parsing() {
+    let dir = tempfile::tempdir().unwrap();
+    // A valid scene under a name arbor does not read: refused, not parsed.
+    std::fs::write(
+        dir.path().join("car.3ds"),
+        "<scene><camera/><surface type=\"Sphere\"/></scene>",
+    )
+    .unwrap();
+    let want = "car.3ds: not a format arbor reads (.3ds); it reads .xml, .obj, .ply, .stl, .gltf, .glb, .msh";
+    for args in [
+        &["render", "car.3ds", "-o", "out.png"][..],
+        &["info", "car.3ds"],
+        &["bench", "car.3ds", "--json", "out.json"],
+        &[
+            "trace", "--mesh", "car.3ds", "--rays", "rays.bin", "--hits", "hits.bin",
+        ],
+    ] {
+        let o = arbor(dir.path(), args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end(), want, "{args:?}");
+        for out in ["out.png", "out.json", "hits.bin"] {
+            assert!(!dir.path().join(out).exists(), "{args:?} wrote {out}");
+        }
+    }
+}
