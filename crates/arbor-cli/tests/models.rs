@@ -150,3 +150,12 @@ fn unknown_extensions_are_refused_before_parsing() {
         }
     }
 }
+
+#[test]
+fn info_counts_only_faces_of_an_obj_with_polylines() {
+    let Some(models) = models() else { return };
+    let o = arbor(&models, &["info", "OBJ/testmixed.obj"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("triangles   12 unique, 12 as placed"), "{out}");
+}

@@ -520,3 +520,150 @@ fn the_engine_keeps_its_shared_meshes() {
         assert!(e.to_string().starts_with(dir.to_str().unwrap()), "{e}");
     }
 }
+
+/// Colour textures are decoded from sRGB into linear colour: an MTL
+/// `map_Kd` texel (92, 135, 39) is linear (0.107, 0.242, 0.020), which the
+/// output's gamma brings back near the texel it was.
+#[test]
+fn model_textures_are_decoded_from_srgb() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("t.obj");
+    std::fs::write(
+        &obj,
+        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl t\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("t.mtl"), "newmtl t\nmap_Kd t.png\n").unwrap();
+    image::RgbImage::from_pixel(1, 1, image::Rgb([92, 135, 39]))
+        .save(dir.path().join("t.png"))
+        .unwrap();
+    let m = load_model(&obj).unwrap();
+    let (shader, _) = &mesh_shaders(&m.surfaces)[0];
+    let t = texture_of(shader).expect("the material has a texture");
+    let want = glam::DVec3::new(0.107023, 0.242281, 0.020289);
+    assert!(
+        (t.texels[0] - want).abs().max_element() < 1e-5,
+        "{}",
+        t.texels[0]
+    );
+}
+
+/// glTF's base colour factor multiplies its base colour texture
+/// (`issue_3269/texcoord_crash.gltf`: one white-and-black image tinted four
+/// ways by four materials).
+#[test]
+fn gltf_base_colour_factor_tints_the_texture() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/issue_3269/texcoord_crash.gltf")).unwrap();
+    let mut tints = Vec::new();
+    for (shader, _) in mesh_shaders(&m.surfaces) {
+        if let Some(t) = texture_of(&shader) {
+            // The brightest texel is the factor itself (the image is white there).
+            let max = t
+                .texels
+                .iter()
+                .copied()
+                .fold(glam::DVec3::ZERO, glam::DVec3::max);
+            tints.push(max);
+        }
+    }
+    assert_eq!(tints.len(), 4, "{tints:?}");
+    for want in [
+        [0.0, 0.16, 0.8],
+        [0.0, 0.8, 0.0],
+        [0.8, 0.8, 0.0],
+        [0.8, 0.08, 0.0],
+    ] {
+        let want = glam::DVec3::from_array(want);
+        assert!(
+            tints.iter().any(|t| (*t - want).abs().max_element() < 1e-6),
+            "{want} not among {tints:?}"
+        );
+    }
+}
+
+/// OBJ `l` and `p` lines are not faces: `testmixed.obj` has 12 triangles
+/// and 12 polylines.
+#[test]
+fn obj_lines_and_points_are_not_faces() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/testmixed.obj")).unwrap();
+    assert_eq!(triangles(&m.surfaces), 12);
+    assert!(
+        m.warnings.iter().any(|w| w.contains("'l' and 'p'")),
+        "{:?}",
+        m.warnings
+    );
+}
+
+/// MTL libraries load in any byte encoding (Latin-1 bytes in `regr01.mtl`
+/// and `box_spaces.mtl`), a nameless `newmtl` is skipped with a warning
+/// naming the library and its line (`empty_mat.mtl`), and a UTF-16 OBJ
+/// with a byte-order mark is read.
+#[test]
+fn obj_and_mtl_in_any_encoding() {
+    let Some(dir) = models() else { return };
+    for file in ["OBJ/regr01.obj", "OBJ/box_mat_with_spaces.obj"] {
+        let m = load_model(&dir.join(file)).unwrap();
+        assert!(m.warnings.is_empty(), "{file}: {:?}", m.warnings);
+        let default = arbor::load::default_shader();
+        assert!(
+            mesh_shaders(&m.surfaces)
+                .iter()
+                .any(|(s, _)| **s != *default),
+            "{file}: every surface has the default material"
+        );
+    }
+    let m = load_model(&dir.join("OBJ/empty_mat.obj")).unwrap();
+    assert!(triangles(&m.surfaces) > 0);
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("empty_mat.mtl:3: warning: a material with no name")),
+        "{:?}",
+        m.warnings
+    );
+    let m = load_model(&dir.join("OBJ/box_UTF16BE.obj")).unwrap();
+    assert_eq!(triangles(&m.surfaces), 12);
+}
+
+/// glTF triangle strips and fans are triangulated (the asset generator's
+/// four files of two triangles each); a file of points fails with the
+/// warning that says why in its one line.
+#[test]
+fn gltf_strips_and_fans_render_and_points_say_why() {
+    let Some(dir) = models() else { return };
+    let modes = dir.join("glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode");
+    for n in ["04", "05", "11", "12"] {
+        let m = load_model(&modes.join(format!("Mesh_PrimitiveMode_{n}.gltf")))
+            .unwrap_or_else(|e| panic!("{n}: {e}"));
+        assert_eq!(triangles(&m.surfaces), 2, "{n}");
+    }
+    let e = err(&modes.join("Mesh_PrimitiveMode_00.gltf"));
+    let text = e.to_string();
+    assert!(
+        text.contains("no triangles to render") && text.contains("Points primitive"),
+        "{text}"
+    );
+    assert_eq!(text.lines().count(), 1, "{text}");
+}
+
+/// What arbor cannot read is said in one line: glTF 1.0, an extension the
+/// file requires (named once), and files with no scene or no nodes fail
+/// because they hold nothing, not on the optional parts they leave out.
+#[test]
+fn gltf_unsupported_inputs_get_one_clear_line() {
+    let Some(dir) = models() else { return };
+    let e = err(&dir.join("glTF/BoxTextured-glTF/BoxTextured.gltf")).to_string();
+    assert!(
+        e.contains("glTF 1.0") && e.contains("arbor reads glTF 2.0"),
+        "{e}"
+    );
+    let e = err(&dir.join("glTF2/draco/2CylinderEngine.gltf")).to_string();
+    assert_eq!(e.matches("KHR_draco_mesh_compression").count(), 1, "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    for f in ["NoScene.gltf", "SceneWithoutNodes.gltf"] {
+        let e = err(&dir.join("glTF2/TestNoRootNode").join(f)).to_string();
+        assert!(e.contains("no triangles to render"), "{f}: {e}");
+    }
+}

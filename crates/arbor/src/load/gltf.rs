@@ -33,7 +33,7 @@ use crate::flatten::DEFAULT_MAX_PLACEMENTS;
 use crate::load::{LoadError, MeshData};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
-use crate::texture::{Texture, Wrap};
+use crate::texture::{TexelEncoding, Texture, Wrap};
 
 /// Imports the glTF or GLB file at `path`, external buffers resolved
 /// beside it.
@@ -62,6 +62,22 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
             }
         }
     }
+    let prepared = if bytes.starts_with(b"glTF") {
+        if bytes.get(4..8) == Some(&1u32.to_le_bytes()[..]) {
+            return Err(LoadError::file(
+                path,
+                "a glTF 1.0 binary file; arbor reads glTF 2.0",
+            ));
+        }
+        // The JSON chunk is checked; it is not rewritten.
+        if let Some(json) = glb_json_chunk(bytes) {
+            prepare_json(json, path)?;
+        }
+        None
+    } else {
+        prepare_json(bytes, path)?
+    };
+    let bytes = prepared.as_deref().unwrap_or(bytes);
     let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
@@ -103,6 +119,88 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         aspect: None,
     }
     .run()
+}
+
+/// The extensions arbor reads when a file requires them (none of the
+/// required-extension kind today: each one listed here changes geometry or
+/// materials in a way the importer implements).
+const SUPPORTED_REQUIRED: &[&str] = &[];
+
+/// Checks what the JSON says before the crate parses it, for one clear line
+/// where the crate would give a misleading one: glTF 1.0 (a different
+/// schema), required extensions arbor lacks (named once each), and returns
+/// the JSON with what the specification makes optional filled in (a scene
+/// without `nodes`, a default `scene` naming no scene). `json` is the JSON
+/// text, or a GLB's JSON chunk.
+fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> {
+    let Ok(mut root) = gltf::json::deserialize::from_slice::<gltf::json::Value>(json) else {
+        // Not JSON at all: the crate's own message says where.
+        return Ok(None);
+    };
+    let version = root
+        .pointer("/asset/version")
+        .and_then(|v| v.as_str())
+        .unwrap_or("");
+    if version.starts_with('1') {
+        return Err(LoadError::file(
+            path,
+            format!("a glTF {version} file; arbor reads glTF 2.0"),
+        ));
+    }
+    let mut missing: Vec<String> = Vec::new();
+    if let Some(required) = root.get("extensionsRequired").and_then(|v| v.as_array()) {
+        for name in required.iter().filter_map(|v| v.as_str()) {
+            if !SUPPORTED_REQUIRED.contains(&name) && !missing.iter().any(|m| m == name) {
+                missing.push(name.to_string());
+            }
+        }
+    }
+    if !missing.is_empty() {
+        return Err(LoadError::file(
+            path,
+            format!(
+                "the file requires the glTF extension{} {}, which arbor does not read",
+                if missing.len() > 1 { "s" } else { "" },
+                missing.join(", ")
+            ),
+        ));
+    }
+    let mut changed = false;
+    let scenes = root
+        .get("scenes")
+        .and_then(|s| s.as_array())
+        .map_or(0, |s| s.len());
+    if let Some(obj) = root.as_object_mut() {
+        // A default scene that names no scene: no default scene.
+        if obj
+            .get("scene")
+            .and_then(|s| s.as_u64())
+            .is_some_and(|s| s as usize >= scenes)
+        {
+            obj.remove("scene");
+            changed = true;
+        }
+        // `nodes` of a scene is optional: an empty scene.
+        if let Some(list) = obj.get_mut("scenes").and_then(|s| s.as_array_mut()) {
+            for scene in list.iter_mut().filter_map(|s| s.as_object_mut()) {
+                if !scene.contains_key("nodes") {
+                    scene.insert("nodes".into(), gltf::json::Value::Array(Vec::new()));
+                    changed = true;
+                }
+            }
+        }
+    }
+    Ok(changed.then(|| gltf::json::serialize::to_vec(&root).unwrap_or_default()))
+}
+
+/// The JSON chunk of a GLB file (the first chunk, by the format), when the
+/// header and the chunk's length are consistent.
+fn glb_json_chunk(bytes: &[u8]) -> Option<&[u8]> {
+    let len = u32::from_le_bytes(bytes.get(12..16)?.try_into().ok()?) as usize;
+    if bytes.get(16..20)? != b"JSON" {
+        return None;
+    }
+    bytes.get(20..20usize.checked_add(len)?)
 }
 
 /// Checks what the crate's buffer import would trip on: a relative URI
@@ -251,7 +349,19 @@ impl Importer<'_> {
             }
         }
         if self.stats.instanced_triangles == 0 {
-            return Err(self.err("the file has no triangles to render"));
+            // The warnings say why (points, lines, textures...): keep them
+            // in the one line the user sees.
+            let prefix = format!("{}: warning: ", self.path.display());
+            let why: Vec<&str> = self
+                .warnings
+                .iter()
+                .map(|w| w.strip_prefix(&prefix).unwrap_or(w))
+                .collect();
+            let mut message = "the file has no triangles to render".to_string();
+            if !why.is_empty() {
+                message = format!("{message} ({})", why.join("; "));
+            }
+            return Err(self.err(message));
         }
         Ok(Model {
             surfaces,
@@ -398,9 +508,12 @@ impl Importer<'_> {
         let mut parts = Vec::new();
         let mut triangles = 0u64;
         for prim in mesh.primitives() {
-            if prim.mode() != Mode::Triangles {
+            if !matches!(
+                prim.mode(),
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
                 self.warnings.push(format!(
-                    "{}: warning: mesh {} has a {:?} primitive; only triangles are rendered",
+                    "{}: warning: mesh {} has a {:?} primitive; points and lines are skipped, only surfaces are rendered",
                     self.path.display(),
                     mesh.index(),
                     prim.mode()
@@ -530,7 +643,7 @@ impl Importer<'_> {
         }
         let texture = match self
             .image_bytes(&image)
-            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat))
+            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat, TexelEncoding::Srgb))
         {
             Ok(t) => Some(Arc::new(t)),
             Err(e) => {
@@ -658,10 +771,7 @@ impl Importer<'_> {
             )));
         }
         let mut data = MeshData {
-            triangles: indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
+            triangles: assemble(prim.mode(), &indices),
             positions,
             normals,
             uvs,
@@ -672,16 +782,49 @@ impl Importer<'_> {
     }
 }
 
+/// The triangles of a primitive's index list in its mode (glTF 2.0,
+/// "Meshes"): lists in threes; strips with every other triangle's winding
+/// turned, so all face one way; fans around the first vertex. In strips and
+/// fans a triangle that repeats a vertex (a restart) is dropped.
+fn assemble(mode: Mode, ix: &[u32]) -> Vec<[u32; 3]> {
+    let distinct = |t: &[u32; 3]| t[0] != t[1] && t[1] != t[2] && t[0] != t[2];
+    match mode {
+        Mode::TriangleStrip => (0..ix.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [ix[i], ix[i + 1], ix[i + 2]]
+                } else {
+                    [ix[i], ix[i + 2], ix[i + 1]]
+                }
+            })
+            .filter(distinct)
+            .collect(),
+        Mode::TriangleFan => (1..ix.len().saturating_sub(1))
+            .map(|i| [ix[i], ix[i + 1], ix[0]])
+            .filter(distinct)
+            .collect(),
+        _ => ix.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
 /// The shader for a glTF material: the base colour is the diffuse colour;
 /// a smooth (low roughness) surface gets a Phong highlight whose exponent
 /// grows as the roughness falls, metals tinted by their colour. A base
-/// colour texture, when one was read, replaces the diffuse colour.
+/// colour texture, when one was read, times the base colour factor (both
+/// linear, as the specification defines them) is the diffuse colour.
 pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shader> {
     let pbr = m.pbr_metallic_roughness();
     let c = pbr.base_color_factor();
     let base = DVec4::from_array(c.map(f64::from))
         .truncate()
         .clamp(DVec3::ZERO, DVec3::ONE);
+    let texture = texture.map(|t| {
+        if base == DVec3::ONE {
+            t
+        } else {
+            Arc::new(t.tinted(base))
+        }
+    });
     let rough = (pbr.roughness_factor() as f64).clamp(0.0, 1.0);
     let metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
     if rough >= 0.9 {
@@ -700,4 +843,63 @@ pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shad
         exponent,
         texture,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_become_triangles_facing_one_way() {
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 2, 3, 4]),
+            [[0, 1, 2], [1, 3, 2], [2, 3, 4]]
+        );
+        assert_eq!(
+            assemble(Mode::TriangleFan, &[0, 1, 2, 3]),
+            [[1, 2, 0], [2, 3, 0]]
+        );
+        // A restart (repeated vertex) yields no triangle.
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 1, 2]),
+            Vec::<[u32; 3]>::new()
+        );
+        assert_eq!(assemble(Mode::Triangles, &[0, 1, 2, 3]), [[0, 1, 2]]);
+    }
+
+    #[test]
+    fn json_checks_before_the_crate() {
+        let p = Path::new("m.gltf");
+        let e = prepare_json(br#"{"asset":{"version":"1.0"}}"#, p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.gltf: a glTF 1.0 file; arbor reads glTF 2.0"
+        );
+        let e = prepare_json(
+            br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression","KHR_draco_mesh_compression"]}"#,
+            p,
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.gltf: the file requires the glTF extension KHR_draco_mesh_compression, which arbor does not read"
+        );
+        // Optional parts filled in: a scene's nodes, no default scene.
+        let fixed = prepare_json(br#"{"asset":{"version":"2.0"},"scene":0}"#, p)
+            .unwrap()
+            .unwrap();
+        let v: gltf::json::Value = gltf::json::deserialize::from_slice(&fixed).unwrap();
+        assert!(v.get("scene").is_none());
+        let fixed = prepare_json(br#"{"asset":{"version":"2.0"},"scenes":[{}]}"#, p)
+            .unwrap()
+            .unwrap();
+        let v: gltf::json::Value = gltf::json::deserialize::from_slice(&fixed).unwrap();
+        assert_eq!(
+            v.pointer("/scenes/0/nodes"),
+            Some(&gltf::json::Value::Array(vec![]))
+        );
+        assert!(prepare_json(br#"{"asset":{"version":"2.0"}}"#, p)
+            .unwrap()
+            .is_none());
+    }
 }

@@ -28,6 +28,7 @@ pub mod gltf;
 mod mesh_data;
 mod model;
 pub mod msh;
+mod mtl;
 pub mod obj_exact;
 pub mod obj_import;
 pub mod ply;
@@ -44,7 +45,7 @@ pub use obj_exact::{load_obj, parse_obj, ObjRule};
 
 use crate::xml::LoadedScene;
 use model::{check_finite, sanitize_normals};
-use text::{read_bytes, read_text, shorten};
+use text::{decode_text, read_bytes, read_text, shorten};
 
 /// Reads one triangle mesh from a mesh file (`.msh`, `.obj` read under
 /// `rule`, `.ply`, `.stl`), as it is stored: no turning, no materials.

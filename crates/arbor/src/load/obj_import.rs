@@ -27,26 +27,27 @@
 //! library is a warning, not an error.
 
 use crate::hash_map::HashMap;
+use std::cell::RefCell;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3};
 
+use super::mtl;
 use super::triangulate::triangulate;
 use super::{default_shader, shorten, Model, ModelStats};
 use crate::load::{LoadError, MeshData};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
-use crate::texture::{Texture, Wrap};
+use crate::texture::{TexelEncoding, Texture, Wrap};
 
 /// Imports the OBJ file at `path` with its material library.
 pub fn load(path: &Path) -> Result<Model, LoadError> {
     let bytes = super::read_bytes(path)?;
-    let text = String::from_utf8_lossy(&bytes);
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let text = super::decode_text(&bytes, path)?;
     let mut warnings = Vec::new();
-    let clean = prepass(text, path, &mut warnings)?;
+    let clean = prepass(&text, path, &mut warnings)?;
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: false,
@@ -54,16 +55,28 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
         ignore_lines: true,
     };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    // Libraries are read by us (any encoding, warnings naming them); tobj
+    // only merges what they hold.
+    let library_warnings = RefCell::new(Vec::new());
     let (models, materials) =
         tobj::load_obj_buf(&mut Cursor::new(clean.as_bytes()), &options, |p| {
             let p = dir.join(p);
-            if p.is_file() {
-                tobj::load_mtl(&p)
+            let mut warnings = library_warnings.borrow_mut();
+            let materials = if p.is_file() {
+                mtl::load_library(&p, &mut warnings)
             } else {
-                Err(tobj::LoadError::OpenFileFailed)
-            }
+                warnings.push(format!(
+                    "{}: warning: the material library named by {} is not there; using the default material",
+                    p.display(),
+                    path.display()
+                ));
+                Vec::new()
+            };
+            let names = mtl::index(&materials);
+            Ok((materials, names))
         })
         .map_err(|e| LoadError::file(path, format!("malformed OBJ file: {e}")))?;
+    warnings.extend(library_warnings.into_inner());
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -220,7 +233,7 @@ impl<'a> Textures<'a> {
         if let Some(t) = self.loaded.get(&path) {
             return Some(t.clone());
         }
-        match Texture::load(&path, Wrap::Repeat) {
+        match Texture::load(&path, Wrap::Repeat, TexelEncoding::Srgb) {
             Ok(t) => {
                 let t = Arc::new(t);
                 self.loaded.insert(path, t.clone());
@@ -309,6 +322,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
     let mut faces = 0usize;
     let mut odd_numbers = 0usize;
     let mut short_faces = 0usize;
+    let mut not_faces = 0usize;
     let mut first_odd = 0usize;
     for (i, raw) in text.split('\n').enumerate() {
         let line_no = i + 1;
@@ -357,6 +371,19 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                 "vt" => nt += 1,
                 _ => nn += 1,
             }
+            continue;
+        }
+        if keyword == "usemtl" && body.split_whitespace().nth(1).is_none() {
+            // `usemtl` naming nothing (after a nameless `newmtl`): the faces
+            // have no material. tobj refuses the empty name; a name no
+            // library can define (a control character) gives the same.
+            out.push_str("usemtl \u{1}\n");
+            continue;
+        }
+        if keyword == "l" || keyword == "p" {
+            // Polylines and points have no area: not faces, not drawn.
+            not_faces += 1;
+            out.push('\n');
             continue;
         }
         if keyword == "f" {
@@ -416,6 +443,12 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
     if odd_numbers > 0 {
         warnings.push(format!(
             "{}:{first_odd}: warning: {odd_numbers} numbers with trailing characters were read up to the first one that is not part of a number",
+            path.display()
+        ));
+    }
+    if not_faces > 0 {
+        warnings.push(format!(
+            "{}: warning: skipped {not_faces} 'l' and 'p' lines (polylines and points have no area to render)",
             path.display()
         ));
     }

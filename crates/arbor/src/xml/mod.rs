@@ -22,7 +22,7 @@ use crate::scene::{Scene, Variant};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::transformed::{rotation_degrees, scaling, translation};
 use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
-use crate::texture::{CubeMap, Texture, Wrap};
+use crate::texture::{CubeMap, TexelEncoding, Texture, Wrap};
 
 mod values;
 
@@ -702,7 +702,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         let (at, file) =
             file.ok_or_else(|| self.error(node, "a texture needs an <image> file name"))?;
         let path = self.dir.join(&file);
-        let texture = Arc::new(Texture::load(&path, wrap).map_err(|e| {
+        let texture = Arc::new(Texture::load(&path, wrap, TexelEncoding::Raw).map_err(|e| {
             self.error(
                 at,
                 format!("cannot read texture image '{}': {e}", path.display()),
