@@ -159,3 +159,24 @@ fn info_counts_only_faces_of_an_obj_with_polylines() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(out.contains("triangles   12 unique, 12 as placed"), "{out}");
 }
+
+#[test]
+fn vertex_colours_show_in_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    // A green triangle by its vertex colours alone (no material).
+    std::fs::write(
+        dir.path().join("g.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n0 0 0 0 200 0\n1 0 0 0 200 0\n0 1 0 0 200 0\n3 0 1 2\n",
+    )
+    .unwrap();
+    let o = arbor(dir.path(), &["render", "g.ply", "-o", "g.png", "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = image::open(dir.path().join("g.png")).unwrap().to_rgb8();
+    let green = img
+        .pixels()
+        .filter(|p| p[1] > 60 && p[1] as u32 > 3 * (p[0] as u32 + p[2] as u32 + 1))
+        .count();
+    assert!(green > 500, "{green} green pixels");
+}

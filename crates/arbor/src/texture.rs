@@ -30,9 +30,24 @@ impl TexelEncoding {
         let c = b as f64 / 255.0;
         match self {
             TexelEncoding::Raw => c,
-            TexelEncoding::Srgb if c <= 0.04045 => c / 12.92,
-            TexelEncoding::Srgb => ((c + 0.055) / 1.055).powf(2.4),
+            TexelEncoding::Srgb => srgb_to_linear(c),
         }
+    }
+}
+
+/// The linear value of an sRGB-encoded value `c` in `[0, 1]` (the sRGB
+/// transfer function; textures and vertex colours of models).
+/// Values outside `[0, 1]` are clamped to it, non-numbers read as 0.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    let c = if c.is_finite() {
+        c.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
     }
 }
 

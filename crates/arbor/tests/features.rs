@@ -217,6 +217,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
         ],
         normals: None,
         uvs: None,
+        colors: None,
         // A good triangle, one with a NaN corner, and a zero-area one (kept,
         // but never hit: Cramer's determinant is zero).
         triangles: vec![[0, 1, 2], [0, 3, 2], [0, 4, 4]],
@@ -262,6 +263,7 @@ fn two_sided_meshes_turn_the_normal_to_the_ray() {
                 positions: positions.clone(),
                 normals: normals.map(|n| vec![n; 3]),
                 uvs: None,
+                colors: None,
                 triangles: vec![[0, 1, 2]],
             }),
             shader: Arc::new(shader),

@@ -667,3 +667,55 @@ fn gltf_unsupported_inputs_get_one_clear_line() {
         assert!(e.contains("no triangles to render"), "{f}: {e}");
     }
 }
+
+/// The colours of the mesh of a one-mesh model, if it has them.
+fn vertex_colors(path: &Path) -> Option<Vec<glam::Vec3>> {
+    let m = load_model(path).unwrap_or_else(|e| panic!("{e}"));
+    let mut out = None;
+    for s in &m.surfaces {
+        s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
+            if let Surface::Mesh(mesh) = leaf {
+                out = mesh.data.colors.clone();
+            }
+        });
+    }
+    out
+}
+
+/// Vertex colours are read and decoded from sRGB: OBJ's `v x y z r g b`
+/// (`cube_with_vertexcolors.obj`), PLY's `red`/`green`/`blue` as floats
+/// (`float-color.ply`) and as bytes (a file written here).
+#[test]
+fn vertex_colours_are_read_linear() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("c.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 188 0 0\n0 1 0 0 0 255\n3 0 1 2\n",
+    )
+    .unwrap();
+    let c = vertex_colors(&ply).expect("the PLY has colours");
+    assert_eq!(c[0], glam::Vec3::new(1.0, 0.0, 0.0));
+    assert!(
+        (c[1].x - 0.5029).abs() < 1e-3,
+        "sRGB 188 is linear 0.503: {}",
+        c[1]
+    );
+    assert_eq!(c[2], glam::Vec3::new(0.0, 0.0, 1.0));
+    let Some(models) = models() else { return };
+    let c = vertex_colors(&models.join("PLY/float-color.ply")).expect("float-color has colours");
+    assert!(
+        c.iter().all(|c| *c == glam::Vec3::new(0.0, 0.0, 1.0)),
+        "{c:?}"
+    );
+    let c = vertex_colors(&models.join("OBJ/cube_with_vertexcolors.obj"))
+        .expect("cube_with_vertexcolors has colours");
+    // Its first vertex: sRGB (0.48627, 0.43137, 0.47059).
+    let want = glam::Vec3::new(0.2016, 0.1559, 0.1878);
+    assert!(
+        c.iter().any(|c| (*c - want).abs().max_element() < 1e-3),
+        "{c:?}"
+    );
+}

@@ -775,6 +775,7 @@ impl Importer<'_> {
             positions,
             normals,
             uvs,
+            colors: None,
         };
         super::check_finite(self.path, &data.positions)?;
         super::sanitize_normals(&mut data);

@@ -102,6 +102,7 @@ pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, LoadError> {
         positions,
         normals: sections.normals.map(|(_, n)| n),
         uvs: sections.texcoords.map(|(_, t)| t),
+        colors: None,
         triangles,
     })
 }

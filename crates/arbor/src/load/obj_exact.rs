@@ -378,6 +378,7 @@ impl<'p> Reader<'p> {
                 positions: self.positions,
                 normals: None,
                 uvs: None,
+                colors: None,
                 triangles: self.triangles,
             },
             ObjRule::Cornell2015 => {
@@ -404,6 +405,7 @@ impl<'p> Reader<'p> {
                     positions,
                     normals,
                     uvs,
+                    colors: None,
                     triangles: self.triangles,
                 }
             }

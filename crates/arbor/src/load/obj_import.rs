@@ -40,7 +40,7 @@ use super::{default_shader, shorten, Model, ModelStats};
 use crate::load::{LoadError, MeshData};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
-use crate::texture::{TexelEncoding, Texture, Wrap};
+use crate::texture::{srgb_to_linear, TexelEncoding, Texture, Wrap};
 
 /// Imports the OBJ file at `path` with its material library.
 pub fn load(path: &Path) -> Result<Model, LoadError> {
@@ -107,6 +107,16 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
                     .map(|c| Vec3::new(c[0], c[1], c[2]))
                     .collect()
             }),
+            colors: (mesh.vertex_color.len() == mesh.positions.len() && !positions.is_empty())
+                .then(|| {
+                    mesh.vertex_color
+                        .chunks_exact(3)
+                        .map(|c| {
+                            let linear = |v: f32| srgb_to_linear(v as f64) as f32;
+                            Vec3::new(linear(c[0]), linear(c[1]), linear(c[2]))
+                        })
+                        .collect()
+                }),
             uvs: (mesh.texcoords.len() / 2 == positions.len() && !positions.is_empty()).then(
                 || {
                     mesh.texcoords
@@ -318,6 +328,14 @@ fn lenient_number(token: &str) -> Option<(f32, bool)> {
 /// reported with their line number.
 fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, LoadError> {
     let mut out = String::with_capacity(text.len() + 64);
+    // Vertex colours (`v x y z r g b`) are kept only when every vertex has
+    // them: tobj would pair a partial list with the wrong vertices.
+    let colours = {
+        let mut vs = text.lines().filter(|l| l.trim_start().starts_with("v "));
+        let counts = |l: &str| l.split('#').next().unwrap_or("").split_whitespace().count();
+        let first = vs.next();
+        first.is_some_and(|f| counts(f) >= 7) && vs.all(|l| counts(l) >= 7)
+    };
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
     let mut faces = 0usize;
     let mut odd_numbers = 0usize;
@@ -337,7 +355,12 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
         };
         if let Some(needed) = needed {
             let mut values = Vec::with_capacity(3);
-            for tok in tokens.by_ref().take(if keyword == "vt" { 2 } else { 3 }) {
+            let take = match keyword {
+                "vt" => 2,
+                "v" if colours => 6,
+                _ => 3,
+            };
+            for tok in tokens.by_ref().take(take) {
                 let Some((v, odd)) = lenient_number(tok) else {
                     return Err(LoadError::at(
                         path,

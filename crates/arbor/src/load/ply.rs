@@ -19,6 +19,7 @@ use glam::Vec3;
 use super::shorten;
 use super::triangulate::triangulate;
 use crate::load::{LoadError, MeshData};
+use crate::texture::srgb_to_linear;
 
 /// Reads the PLY file at `path`.
 pub fn load(path: &Path) -> Result<MeshData, LoadError> {
@@ -361,6 +362,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     };
     let mut mesh = MeshData::default();
     let mut normals: Vec<Vec3> = Vec::new();
+    let mut colors: Vec<Vec3> = Vec::new();
     let mut faces: Vec<(usize, Vec<u32>)> = Vec::new();
     let mut values: Vec<f64> = Vec::new();
     let mut list: Vec<f64> = Vec::new();
@@ -372,6 +374,14 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
         };
         let xyz = [find("x"), find("y"), find("z")];
         let nxyz = [find("nx"), find("ny"), find("nz")];
+        let rgb = [find("red"), find("green"), find("blue")];
+        // Integer colours run to their type's maximum, float ones to 1.
+        let colour_scale = rgb[0].map_or(1.0, |i| match e.props[i].ty {
+            Ty::U8 | Ty::I8 => 255.0,
+            Ty::U16 | Ty::I16 => 65535.0,
+            Ty::U32 | Ty::I32 => u32::MAX as f64,
+            Ty::F32 | Ty::F64 => 1.0,
+        });
         let is_vertex = e.name == "vertex";
         let is_face = e.name == "face";
         let corners_prop = e.props.iter().position(|p| {
@@ -426,6 +436,10 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
                 if nxyz.iter().all(Option::is_some) {
                     normals.push(Vec3::new(get(nxyz[0]), get(nxyz[1]), get(nxyz[2])));
                 }
+                if let [Some(r), Some(g), Some(b)] = rgb {
+                    let c = |i: usize| srgb_to_linear(values[i] / colour_scale) as f32;
+                    colors.push(Vec3::new(c(r), c(g), c(b)));
+                }
             } else if is_face {
                 let corners = corners
                     .iter()
@@ -443,6 +457,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     }
     if normals.len() == mesh.positions.len() {
         mesh.normals = Some(normals);
+    }
+    if !colors.is_empty() && colors.len() == mesh.positions.len() {
+        mesh.colors = Some(colors);
     }
     // Faces may come before vertices in the file: check them at the end.
     let n = mesh.positions.len() as u64;

@@ -421,8 +421,10 @@ fn texture_or(
     hit: &Hit,
     base: DVec3,
 ) -> DVec3 {
+    // A texture first, then the mesh's vertex colours (models only; both
+    // linear), then the shader's own colour.
     match (texture, hit.uv) {
         (Some(t), Some(uv)) => t.lookup(uv.x, uv.y),
-        _ => base,
+        _ => hit.color.unwrap_or(base),
     }
 }
