@@ -719,3 +719,20 @@ fn vertex_colours_are_read_linear() {
         "{c:?}"
     );
 }
+
+/// A model whose only face is degenerate (`number_formats.obj`) loads with a
+/// warning that nothing will show; a good model has no such warning.
+#[test]
+fn all_degenerate_models_are_warned_about() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/number_formats.obj")).unwrap();
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("every triangle has zero area")),
+        "{:?}",
+        m.warnings
+    );
+    let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+}

@@ -58,7 +58,39 @@ pub struct ModelStats {
 }
 
 /// Imports the model at `path`, choosing the reader by its [`Format`].
+/// A model whose triangles all have zero area gets a warning saying so (it
+/// would show as an empty floor).
 pub fn load_model(path: &Path) -> Result<Model, LoadError> {
+    let mut model = read_model(path)?;
+    if !has_area(&model.surfaces) {
+        model.warnings.push(format!(
+            "{}: warning: every triangle has zero area (its corners on one line); the picture shows no model",
+            path.display()
+        ));
+    }
+    Ok(model)
+}
+
+/// Whether any triangle of `surfaces` has a non-zero area.
+fn has_area(surfaces: &[Surface]) -> bool {
+    let mut any = false;
+    for s in surfaces {
+        s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
+            if let Surface::Mesh(m) = leaf {
+                let p = &m.data.positions;
+                any = any
+                    || m.data.triangles.iter().any(|t| {
+                        let [a, b, c] = t.map(|i| p[i as usize].as_dvec3());
+                        (b - a).cross(c - a).length_squared() > 0.0
+                    });
+            }
+        });
+    }
+    any
+}
+
+/// Imports the model at `path` with the reader its [`Format`] names.
+fn read_model(path: &Path) -> Result<Model, LoadError> {
     match Format::from_path(path)? {
         Format::Obj => obj::load(path),
         Format::Ply => Ok(single_mesh(ply::load(path)?)),
