@@ -64,6 +64,14 @@ pub struct RenderArgs {
     /// `.part` file for `arbor merge`.
     #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region)]
     pub region: Option<Region>,
+    /// Models: the file's up axis (x, y, z, -x, -y, -z); by default z for
+    /// STL, y for OBJ, PLY and glTF.
+    #[arg(long, value_name = "AXIS", allow_hyphen_values = true)]
+    pub up: Option<arbor::load::Up>,
+    /// Models: `auto` frames the model with arbor's camera even when the
+    /// file has its own.
+    #[arg(long, value_name = "auto", value_parser = ["auto"])]
+    pub camera: Option<String>,
 }
 
 /// Runs `arbor render`.
@@ -76,7 +84,12 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let (scene, output) = match &args.scene {
         Some(path) => {
-            let loaded = load_scene_or_model(path)?;
+            let options = arbor::load::ModelOptions {
+                up: args.up,
+                auto_camera: args.camera.is_some(),
+            };
+            let loaded = arbor::load::load_scene_with(path, &options)
+                .map_err(|e| InputError(e.to_string()))?;
             if !args.quiet {
                 for w in &loaded.warnings {
                     eprintln!("{w}");

@@ -180,3 +180,28 @@ fn vertex_colours_show_in_the_picture() {
         .count();
     assert!(green > 500, "{green} green pixels");
 }
+
+#[test]
+fn up_and_camera_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
+    let o = arbor(
+        dir.path(),
+        &[
+            "render", "t.obj", "--up", "-z", "--camera", "auto", "-o", "t.png", "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("t.png").is_file());
+    for bad in [&["--up", "w"][..], &["--camera", "front"]] {
+        let mut args = vec!["render", "t.obj", "-o", "bad.png"];
+        args.extend_from_slice(bad);
+        let o = arbor(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}");
+        assert!(!dir.path().join("bad.png").exists());
+    }
+}

@@ -736,3 +736,34 @@ fn all_degenerate_models_are_warned_about() {
     let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
 }
+
+/// `up` turns a model: Wuson.stl read with y up (as its OBJ twin is) has
+/// the height its z-up default gives its depth; `auto_camera` drops the
+/// file's camera (2CylinderEngine.glb has one).
+#[test]
+fn model_options_turn_and_frame() {
+    use arbor::load::{load_model_with, ModelOptions, Up};
+    let Some(dir) = models() else { return };
+    let stl = dir.join("STL/Wuson.stl");
+    let (lo, hi) = frame::bounds(&load_model(&stl).unwrap().surfaces).unwrap();
+    let y_up = ModelOptions {
+        up: Some(Up::Y),
+        ..ModelOptions::default()
+    };
+    let (lo2, hi2) = frame::bounds(&load_model_with(&stl, &y_up).unwrap().surfaces).unwrap();
+    assert!(
+        ((hi2.y - lo2.y) - (hi.z - lo.z)).abs() < 1e-4,
+        "{lo2} {hi2} vs {lo} {hi}"
+    );
+    assert!(
+        ((hi2.z - lo2.z) - (hi.y - lo.y)).abs() < 1e-4,
+        "{lo2} {hi2} vs {lo} {hi}"
+    );
+    let glb = dir.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+    assert!(load_model(&glb).unwrap().camera.is_some());
+    let auto = ModelOptions {
+        auto_camera: true,
+        ..ModelOptions::default()
+    };
+    assert!(load_model_with(&glb, &auto).unwrap().camera.is_none());
+}

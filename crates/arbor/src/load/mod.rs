@@ -39,7 +39,10 @@ pub mod triangulate;
 pub use error::LoadError;
 pub use format::Format;
 pub use mesh_data::{LoadedMesh, MeshData};
-pub use model::{default_shader, load_model, load_model_scene, Model, ModelStats};
+pub use model::{
+    default_shader, load_model, load_model_scene, load_model_scene_with, load_model_with, Model,
+    ModelOptions, ModelStats, Up,
+};
 pub use msh::{load_msh, parse_msh};
 pub use obj_exact::{load_obj, parse_obj, ObjRule};
 
@@ -105,9 +108,15 @@ pub fn load_cornell_scene(path: &Path) -> Result<LoadedScene, LoadError> {
 /// (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`) framed by [`load_model_scene`],
 /// whose warnings become the scene's.
 pub fn load_scene(path: &Path) -> Result<LoadedScene, LoadError> {
+    load_scene_with(path, &ModelOptions::default())
+}
+
+/// [`load_scene`], a model placed and viewed by `options` (which a Cornell
+/// scene ignores: it says where everything is).
+pub fn load_scene_with(path: &Path, options: &ModelOptions) -> Result<LoadedScene, LoadError> {
     match Format::from_path(path)? {
         f if f.is_model() => {
-            let (scene, model) = load_model_scene(path)?;
+            let (scene, model) = load_model_scene_with(path, options)?;
             Ok(LoadedScene {
                 scene,
                 warnings: model.warnings,

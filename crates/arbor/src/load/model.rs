@@ -12,7 +12,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use glam::{DVec3, Vec3};
+use glam::{DMat4, DVec3, Vec3};
 
 use super::{gltf, obj_import as obj, ply, stl};
 use crate::camera::Camera;
@@ -20,7 +20,7 @@ use crate::light::Light;
 use crate::load::{Format, LoadError, MeshData};
 use crate::scene::Scene;
 use crate::shader::Shader;
-use crate::surface::{MeshSurface, Surface};
+use crate::surface::{Group, MeshSurface, Surface};
 
 /// A model as imported: its surfaces, and what the file says about viewing
 /// it, before [`super::frame::scene_for`] adds what the file leaves out.
@@ -106,10 +106,118 @@ fn read_model(path: &Path) -> Result<Model, LoadError> {
     }
 }
 
+/// Which axis of a model file points up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Up {
+    /// +x up.
+    X,
+    /// +y up (OBJ, PLY and glTF by default).
+    Y,
+    /// +z up (STL by default: CAD and 3D printing).
+    Z,
+    /// -x up.
+    NegX,
+    /// -y up.
+    NegY,
+    /// -z up.
+    NegZ,
+}
+
+impl Up {
+    /// The rotation that turns this axis to +y (arbor's up), keeping the
+    /// handedness and the winding.
+    fn to_y_up(self) -> DMat4 {
+        let rows = |x: [f64; 3], y: [f64; 3], z: [f64; 3]| {
+            DMat4::from_mat3(glam::DMat3::from_cols_array(&[
+                x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2],
+            ]))
+        };
+        match self {
+            Up::Y => DMat4::IDENTITY,
+            // (x, y, z) -> (x, z, -y), as STL files have always been turned.
+            Up::Z => rows([1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]),
+            Up::NegZ => rows([1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]),
+            Up::X => rows([0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            Up::NegX => rows([0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            Up::NegY => rows([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]),
+        }
+    }
+}
+
+impl std::str::FromStr for Up {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Up, String> {
+        Ok(match s.to_ascii_lowercase().as_str() {
+            "x" | "+x" => Up::X,
+            "y" | "+y" => Up::Y,
+            "z" | "+z" => Up::Z,
+            "-x" => Up::NegX,
+            "-y" => Up::NegY,
+            "-z" => Up::NegZ,
+            _ => {
+                return Err(format!(
+                    "unknown axis '{s}'; expected x, y, z, -x, -y or -z"
+                ))
+            }
+        })
+    }
+}
+
+/// How a model is placed and viewed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ModelOptions {
+    /// The file's up axis; `None` is the format's rule (z for STL, y for the
+    /// others).
+    pub up: Option<Up>,
+    /// Frame the model with arbor's own camera even when the file has one.
+    pub auto_camera: bool,
+}
+
+/// Imports the model at `path` as [`load_model`] does, then turns it so
+/// that `options.up` points up and drops the file's camera when
+/// `options.auto_camera` asks for arbor's framing.
+pub fn load_model_with(path: &Path, options: &ModelOptions) -> Result<Model, LoadError> {
+    let mut model = load_model(path)?;
+    if let Some(up) = options.up {
+        // The readers have turned the model by its format's rule already.
+        let default = if Format::from_path(path)? == Format::Stl {
+            Up::Z
+        } else {
+            Up::Y
+        };
+        let turn = up.to_y_up() * default.to_y_up().inverse();
+        if turn != DMat4::IDENTITY {
+            model.surfaces = vec![Surface::Group(Group {
+                transform: turn,
+                children: std::mem::take(&mut model.surfaces),
+            })];
+            if let Some(c) = &mut model.camera {
+                c.view_point = turn.transform_point3(c.view_point);
+                c.view_dir = turn.transform_vector3(c.view_dir);
+                c.view_up = turn.transform_vector3(c.view_up);
+            }
+        }
+    }
+    if options.auto_camera {
+        model.camera = None;
+        model.aspect = None;
+    }
+    Ok(model)
+}
+
 /// Imports the model at `path` and builds the scene that frames it
 /// ([`super::frame::scene_for`]). The warnings are the import's.
 pub fn load_model_scene(path: &Path) -> Result<(Scene, Model), LoadError> {
-    let model = load_model(path)?;
+    load_model_scene_with(path, &ModelOptions::default())
+}
+
+/// [`load_model_scene`] with the model placed and viewed by `options`.
+pub fn load_model_scene_with(
+    path: &Path,
+    options: &ModelOptions,
+) -> Result<(Scene, Model), LoadError> {
+    let model = load_model_with(path, options)?;
     let scene = super::frame::scene_for(&model)
         .ok_or_else(|| LoadError::file(path, "the model has no triangles with finite size"))?;
     Ok((scene, model))
@@ -190,5 +298,28 @@ pub(super) fn check_finite(path: &Path, positions: &[Vec3]) -> Result<(), LoadEr
             ),
         )),
         None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_up_axis_turns_to_y_by_a_rotation() {
+        let axes = [
+            ("x", DVec3::X),
+            ("y", DVec3::Y),
+            ("z", DVec3::Z),
+            ("-x", -DVec3::X),
+            ("-y", -DVec3::Y),
+            ("-Z", -DVec3::Z),
+        ];
+        for (name, axis) in axes {
+            let m = name.parse::<Up>().unwrap().to_y_up();
+            assert_eq!(m.transform_vector3(axis), DVec3::Y, "{name}");
+            assert_eq!(m.determinant(), 1.0, "{name}");
+        }
+        assert!("w".parse::<Up>().unwrap_err().contains("expected x, y, z"));
     }
 }
