@@ -767,3 +767,30 @@ fn model_options_turn_and_frame() {
     };
     assert!(load_model_with(&glb, &auto).unwrap().camera.is_none());
 }
+
+/// glTF emission is added to the shaded colour: ClearCoatTest's label
+/// material (emissiveFactor 1 with an emissive texture) glows, the others
+/// (emissiveFactor 0) do not.
+#[test]
+fn gltf_emission_is_kept() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/ClearCoat-glTF/ClearCoatTest.gltf")).unwrap();
+    let shaders = mesh_shaders(&m.surfaces);
+    let glowing: Vec<_> = shaders
+        .iter()
+        .filter_map(|(s, _)| match &**s {
+            Shader::Emissive {
+                emission, texture, ..
+            } => Some((*emission, texture.is_some())),
+            _ => None,
+        })
+        .collect();
+    assert!(!glowing.is_empty(), "no emissive material");
+    assert!(
+        glowing
+            .iter()
+            .all(|(e, textured)| *e == glam::DVec3::ONE && *textured),
+        "{glowing:?}"
+    );
+    assert!(glowing.len() < shaders.len(), "every material glows");
+}

@@ -78,6 +78,13 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         prepare_json(bytes, path)?
     };
     let bytes = prepared.as_deref().unwrap_or(bytes);
+    let emissive_strengths = if bytes.starts_with(b"glTF") {
+        glb_json_chunk(bytes)
+            .map(emissive_strengths)
+            .unwrap_or_default()
+    } else {
+        emissive_strengths(bytes)
+    };
     let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
@@ -110,6 +117,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         mesh_triangles: HashMap::default(),
         mesh_uses: HashMap::default(),
         warnings: Vec::new(),
+        emissive_strengths,
         stats: ModelStats {
             nodes: gltf.document.nodes().len() as u64,
             meshes: gltf.document.meshes().len() as u64,
@@ -191,6 +199,26 @@ fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> 
         }
     }
     Ok(changed.then(|| gltf::json::serialize::to_vec(&root).unwrap_or_default()))
+}
+
+/// Each material's `KHR_materials_emissive_strength` (1 where it has none),
+/// read from the JSON: the crate is built without that extension.
+fn emissive_strengths(json: &[u8]) -> Vec<f64> {
+    let Ok(root) = gltf::json::deserialize::from_slice::<gltf::json::Value>(json) else {
+        return Vec::new();
+    };
+    let Some(materials) = root.get("materials").and_then(|m| m.as_array()) else {
+        return Vec::new();
+    };
+    materials
+        .iter()
+        .map(|m| {
+            m.pointer("/extensions/KHR_materials_emissive_strength/emissiveStrength")
+                .and_then(|s| s.as_f64())
+                .filter(|s| s.is_finite() && *s >= 0.0)
+                .unwrap_or(1.0)
+        })
+        .collect()
 }
 
 /// The JSON chunk of a GLB file (the first chunk, by the format), when the
@@ -303,6 +331,8 @@ struct Importer<'a> {
     /// How many nodes place each mesh.
     mesh_uses: HashMap<usize, u64>,
     warnings: Vec<String>,
+    /// Each material's emissive strength (`KHR_materials_emissive_strength`).
+    emissive_strengths: Vec<f64>,
     stats: ModelStats,
     camera: Option<Camera>,
     aspect: Option<f64>,
@@ -530,7 +560,8 @@ impl Importer<'_> {
                 shader: {
                     let material = prim.material();
                     let texture = self.base_color_texture(&material);
-                    shader_for(&material, texture)
+                    let surface = shader_for(&material, texture);
+                    self.emissive(&material, surface)
                 },
                 two_sided: true,
             }));
@@ -628,10 +659,49 @@ impl Importer<'_> {
     /// model still loads.
     fn base_color_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
         let info = m.pbr_metallic_roughness().base_color_texture()?;
+        self.texture(m, &info, "base colour", "the base colour is used")
+    }
+
+    /// `surface` with the emission of material `m` added when it has one:
+    /// `emissiveFactor` times `emissiveTexture`, scaled by
+    /// `KHR_materials_emissive_strength`.
+    fn emissive(&mut self, m: &gltf::Material, surface: Arc<Shader>) -> Arc<Shader> {
+        let strength = m
+            .index()
+            .and_then(|i| self.emissive_strengths.get(i).copied())
+            .unwrap_or(1.0);
+        let emission = DVec3::from_array(m.emissive_factor().map(f64::from)) * strength;
+        if !(emission.is_finite() && emission.max_element() > 0.0) {
+            return surface;
+        }
+        let texture = self.emissive_texture(m);
+        Arc::new(Shader::Emissive {
+            emission,
+            texture,
+            surface,
+        })
+    }
+
+    /// The emissive texture of material `m`, as [`Self::base_color_texture`]
+    /// reads the base colour's (sRGB as well, by the specification).
+    fn emissive_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
+        let info = m.emissive_texture()?;
+        self.texture(m, &info, "emissive", "its emissive factor alone is used")
+    }
+
+    /// The texture `info` names for the `what` of material `m`; `fallback`
+    /// says in a warning what is used when it cannot be read.
+    fn texture(
+        &mut self,
+        m: &gltf::Material,
+        info: &gltf::texture::Info,
+        what: &str,
+        fallback: &str,
+    ) -> Option<Arc<Texture>> {
         let material = m.index().map_or("default".to_string(), |i| i.to_string());
         if info.tex_coord() != 0 {
             self.warnings.push(format!(
-                "{}: warning: material {material}: its base colour texture uses TEXCOORD_{}, only TEXCOORD_0 is read; the base colour is used",
+                "{}: warning: material {material}: its {what} texture uses TEXCOORD_{}, only TEXCOORD_0 is read; {fallback}",
                 self.path.display(),
                 info.tex_coord()
             ));
@@ -648,7 +718,7 @@ impl Importer<'_> {
             Ok(t) => Some(Arc::new(t)),
             Err(e) => {
                 self.warnings.push(format!(
-                    "{}: warning: material {material}: image {}: {e}; the base colour is used",
+                    "{}: warning: material {material}: image {}: {e}; {fallback}",
                     self.path.display(),
                     image.index()
                 ));
@@ -866,6 +936,13 @@ mod tests {
             Vec::<[u32; 3]>::new()
         );
         assert_eq!(assemble(Mode::Triangles, &[0, 1, 2, 3]), [[0, 1, 2]]);
+    }
+
+    #[test]
+    fn emissive_strength_is_read_per_material() {
+        let json = br#"{"materials":[{},{"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":5.5}}}]}"#;
+        assert_eq!(emissive_strengths(json), [1.0, 5.5]);
+        assert!(emissive_strengths(b"not json").is_empty());
     }
 
     #[test]

@@ -244,6 +244,17 @@ impl<'a> Integrator<'a> {
                 }
             }
             Shader::RgbNormals => (n + DVec3::ONE) / 2.0,
+            Shader::Emissive {
+                emission,
+                texture,
+                surface,
+            } => {
+                let glow = match (texture, hit.uv) {
+                    (Some(t), Some(uv)) => *emission * t.lookup(uv.x, uv.y),
+                    _ => *emission,
+                };
+                glow + self.shade(hit, surface, o, d, depth, contrib, stats)
+            }
             Shader::CookTorrance {
                 diffuse,
                 specular,
