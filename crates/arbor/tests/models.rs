@@ -794,3 +794,18 @@ fn gltf_emission_is_kept() {
     );
     assert!(glowing.len() < shaders.len(), "every material glows");
 }
+
+/// glTF extensions arbor does not implement are named in a warning, not
+/// ignored without a word (`TextureTransformTest.gltf`).
+#[test]
+fn gltf_ignored_extensions_are_warned_about() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/textureTransform/TextureTransformTest.gltf")).unwrap();
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("arbor ignores") && w.contains("KHR_texture_transform")),
+        "{:?}",
+        m.warnings
+    );
+}

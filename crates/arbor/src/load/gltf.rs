@@ -78,13 +78,13 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         prepare_json(bytes, path)?
     };
     let bytes = prepared.as_deref().unwrap_or(bytes);
-    let emissive_strengths = if bytes.starts_with(b"glTF") {
-        glb_json_chunk(bytes)
-            .map(emissive_strengths)
-            .unwrap_or_default()
+    let json = if bytes.starts_with(b"glTF") {
+        glb_json_chunk(bytes).unwrap_or_default()
     } else {
-        emissive_strengths(bytes)
+        bytes
     };
+    let emissive_strengths = emissive_strengths(json);
+    let ignored = ignored_extensions(json);
     let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
@@ -116,7 +116,15 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         meshes: HashMap::default(),
         mesh_triangles: HashMap::default(),
         mesh_uses: HashMap::default(),
-        warnings: Vec::new(),
+        warnings: ignored
+            .map(|names| {
+                format!(
+                    "{}: warning: the file uses glTF extensions arbor ignores ({names}); the picture may differ from the author's",
+                    path.display()
+                )
+            })
+            .into_iter()
+            .collect(),
         emissive_strengths,
         stats: ModelStats {
             nodes: gltf.document.nodes().len() as u64,
@@ -199,6 +207,20 @@ fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> 
         }
     }
     Ok(changed.then(|| gltf::json::serialize::to_vec(&root).unwrap_or_default()))
+}
+
+/// The extensions the file uses (`extensionsUsed`) that arbor does not
+/// implement, listed for a warning, or `None` when there are none.
+fn ignored_extensions(json: &[u8]) -> Option<String> {
+    const READ: &[&str] = &["KHR_materials_emissive_strength"];
+    let root = gltf::json::deserialize::from_slice::<gltf::json::Value>(json).ok()?;
+    let used = root.get("extensionsUsed")?.as_array()?;
+    let ignored: Vec<&str> = used
+        .iter()
+        .filter_map(|v| v.as_str())
+        .filter(|n| !READ.contains(n))
+        .collect();
+    (!ignored.is_empty()).then(|| ignored.join(", "))
 }
 
 /// Each material's `KHR_materials_emissive_strength` (1 where it has none),
@@ -943,6 +965,17 @@ mod tests {
         let json = br#"{"materials":[{},{"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":5.5}}}]}"#;
         assert_eq!(emissive_strengths(json), [1.0, 5.5]);
         assert!(emissive_strengths(b"not json").is_empty());
+    }
+
+    #[test]
+    fn ignored_extensions_are_named() {
+        let json = br#"{"extensionsUsed":["KHR_texture_transform","KHR_materials_emissive_strength","KHR_lights_punctual"]}"#;
+        assert_eq!(
+            ignored_extensions(json).as_deref(),
+            Some("KHR_texture_transform, KHR_lights_punctual")
+        );
+        assert_eq!(ignored_extensions(br#"{"extensionsUsed":[]}"#), None);
+        assert_eq!(ignored_extensions(b"{}"), None);
     }
 
     #[test]
