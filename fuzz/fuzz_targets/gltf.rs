@@ -30,7 +30,7 @@ fn check_groups(s: &Surface) {
 
 fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     // No base folder: external buffers are refused, never read from disk.
-    let Ok(model) = arbor::model::gltf::parse(data, Path::new("fuzz.gltf"), None) else {
+    let Ok(model) = arbor::load::gltf::parse(data, Path::new("fuzz.gltf"), None) else {
         return;
     };
     let stats = model.stats;
@@ -63,7 +63,7 @@ fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     }
     assert_eq!(placed, stats.instanced_triangles, "triangle count");
     assert!(stats.unique_triangles <= stats.instanced_triangles);
-    let Some(mut scene) = arbor::model::frame::scene_for(&model) else {
+    let Some(mut scene) = arbor::load::frame::scene_for(&model) else {
         return;
     };
     scene.width = scene.width.min(4);

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use arbor::mesh::obj::{parse_obj, ObjRule};
+use arbor::load::obj_exact::{parse_obj, ObjRule};
 use libfuzzer_sys::fuzz_target;
 
 #[path = "../one_thread.rs"]

@@ -11,7 +11,7 @@ use libfuzzer_sys::fuzz_target;
 mod one_thread;
 
 fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
-    if let Ok(mesh) = arbor::model::ply::parse(data, Path::new("fuzz.ply")) {
+    if let Ok(mesh) = arbor::load::ply::parse(data, Path::new("fuzz.ply")) {
         let n = mesh.positions.len();
         assert!(!mesh.triangles.is_empty(), "a mesh without triangles");
         assert!(mesh.triangles.iter().flatten().all(|&i| (i as usize) < n));

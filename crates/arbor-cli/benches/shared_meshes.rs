@@ -70,7 +70,7 @@ fn shared_meshes(c: &mut Criterion) {
     let dir = shared_dir().join("scenes/cornell-2010/TEST_B");
     for name in ["buddha100k.msh", "bunny10k.msh"] {
         let path = dir.join(name);
-        let mesh = match arbor::mesh::load_mesh_file(&path) {
+        let mesh = match arbor::load::load_ray_mesh(&path) {
             Ok(m) => m,
             Err(e) => {
                 eprintln!("skipping {name}: {e}");

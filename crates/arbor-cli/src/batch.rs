@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use arbor::mesh::load_mesh_file;
+use arbor::load::load_ray_mesh;
 use arbor_accel::{AccelKind, MeshAccel};
 
 use crate::InputError;
@@ -23,7 +23,7 @@ pub fn load_and_build(
     kind: AccelKind,
     repeat: usize,
 ) -> anyhow::Result<(MeshAccel, f64)> {
-    let data = load_mesh_file(path).map_err(|e| InputError(e.to_string()))?;
+    let data = load_ray_mesh(path).map_err(|e| InputError(e.to_string()))?;
     let mut best = f64::INFINITY;
     let mut built = None;
     for _ in 0..repeat.max(1) {

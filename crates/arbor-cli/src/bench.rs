@@ -21,6 +21,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::load::{Format, ObjRule};
 use arbor::scene::Scene;
 use arbor::tracer::{SplitCounters, Tracer};
 use arbor_accel::{
@@ -549,20 +550,20 @@ enum Input {
     Scene(SceneSubject),
 }
 
-/// Reads the input by extension (any case): `.xml` scenes and `.gltf`/`.glb`
-/// models (framed as `arbor render` frames them) go through the tracer;
-/// `.ply` and `.stl` through the model importer's mesh readers; `.obj` and
-/// `.msh` as `arbor trace` reads them (so triangle numbering matches).
+/// Reads the input by its format: `.xml` scenes and `.gltf`/`.glb` models
+/// (framed as `arbor render` frames them) go through the tracer; `.obj`,
+/// `.msh`, `.ply` and `.stl` are one mesh, OBJ under the fan rule as
+/// `arbor trace` reads it (so triangle numbering matches).
 fn load_input(path: &Path) -> anyhow::Result<Input> {
-    let ext = arbor::model::lower_extension(path);
-    let scene = match ext.as_deref() {
-        Some("xml") => Some(
-            arbor::xml::load_scene(path)
+    let format = Format::from_path(path).map_err(|e| InputError(e.to_string()))?;
+    let scene = match format {
+        Format::Xml => Some(
+            arbor::load::load_cornell_scene(path)
                 .map_err(|e| InputError(e.to_string()))?
                 .scene,
         ),
-        Some("gltf") | Some("glb") => Some(
-            arbor::model::load_model_scene(path)
+        Format::Gltf | Format::Glb => Some(
+            arbor::load::load_model_scene(path)
                 .map_err(|e| InputError(e.to_string()))?
                 .0,
         ),
@@ -574,11 +575,9 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
         let primitives = flat.world.len() + flat.placements.len();
         return Ok(Input::Scene(SceneSubject { scene, primitives }));
     }
-    let mesh = match ext.as_deref() {
-        Some("ply") | Some("stl") => arbor::model::load_mesh_data(path),
-        _ => arbor::mesh::load_mesh_file(path),
-    }
-    .map_err(|e| InputError(e.to_string()))?;
+    let mesh = arbor::load::load_mesh(path, ObjRule::Fan)
+        .map_err(|e| InputError(e.to_string()))?
+        .mesh;
     if mesh.triangles.is_empty() {
         return Err(InputError(format!("{}: the mesh has no triangles", path.display())).into());
     }

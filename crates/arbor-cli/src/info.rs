@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::load::Format;
 use arbor::scene::{Scene, Variant};
 use arbor::surface::Surface;
 use clap::Args;
@@ -26,9 +27,12 @@ pub struct InfoArgs {
 /// Runs `arbor info`.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let (name, scene) = match &args.input {
-        Some(path) if arbor::model::is_model_path(path) => return run_model(path, args.depth),
+        Some(path) if Format::from_path(path).is_ok_and(Format::is_model) => {
+            return run_model(path, args.depth)
+        }
         Some(path) => {
-            let loaded = arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()))?;
+            let loaded =
+                arbor::load::load_cornell_scene(path).map_err(|e| InputError(e.to_string()))?;
             for w in &loaded.warnings {
                 eprintln!("{w}");
             }
@@ -48,7 +52,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
 /// the report of the framed scene `arbor render` would draw.
 fn run_model(path: &std::path::Path, depth: usize) -> anyhow::Result<()> {
     let (scene, model) =
-        arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
+        arbor::load::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
     for w in &model.warnings {
         eprintln!("{w}");
     }

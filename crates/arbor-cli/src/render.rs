@@ -64,6 +64,14 @@ pub struct RenderArgs {
     /// `.part` file for `arbor merge`.
     #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region)]
     pub region: Option<Region>,
+    /// Models: the file's up axis (x, y, z, -x, -y, -z); by default z for
+    /// STL, y for OBJ, PLY and glTF.
+    #[arg(long, value_name = "AXIS", allow_hyphen_values = true)]
+    pub up: Option<arbor::load::Up>,
+    /// Models: `auto` frames the model with arbor's camera even when the
+    /// file has its own.
+    #[arg(long, value_name = "auto", value_parser = ["auto"])]
+    pub camera: Option<String>,
 }
 
 /// Runs `arbor render`.
@@ -76,7 +84,12 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let (scene, output) = match &args.scene {
         Some(path) => {
-            let loaded = load_scene_or_model(path)?;
+            let options = arbor::load::ModelOptions {
+                up: args.up,
+                auto_camera: args.camera.is_some(),
+            };
+            let loaded = arbor::load::load_scene_with(path, &options)
+                .map_err(|e| InputError(e.to_string()))?;
             if !args.quiet {
                 for w in &loaded.warnings {
                     eprintln!("{w}");
@@ -308,19 +321,10 @@ fn print_ray_stats(
     }
 }
 
-/// Model import: a model file (`.obj`, `.ply`, `.stl`, `.gltf`, `.glb`, by
-/// extension in any case) becomes a framed scene; anything else is read as
-/// a Cornell XML scene.
+/// What `arbor render` draws: a Cornell XML scene or a framed model, chosen
+/// by the loader's format registry.
 pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
-    if arbor::model::is_model_path(path) {
-        let (scene, model) =
-            arbor::model::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
-        return Ok(arbor::xml::LoadedScene {
-            scene,
-            warnings: model.warnings,
-        });
-    }
-    arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()).into())
+    arbor::load::load_scene(path).map_err(|e| InputError(e.to_string()).into())
 }
 
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {

@@ -122,3 +122,86 @@ fn info_reports_the_engine_structure() {
         "{out}"
     );
 }
+
+#[test]
+fn unknown_extensions_are_refused_before_parsing() {
+    let dir = tempfile::tempdir().unwrap();
+    // A valid scene under a name arbor does not read: refused, not parsed.
+    std::fs::write(
+        dir.path().join("car.3ds"),
+        "<scene><camera/><surface type=\"Sphere\"/></scene>",
+    )
+    .unwrap();
+    let want = "car.3ds: not a format arbor reads (.3ds); it reads .xml, .obj, .ply, .stl, .gltf, .glb, .msh";
+    for args in [
+        &["render", "car.3ds", "-o", "out.png"][..],
+        &["info", "car.3ds"],
+        &["bench", "car.3ds", "--json", "out.json"],
+        &[
+            "trace", "--mesh", "car.3ds", "--rays", "rays.bin", "--hits", "hits.bin",
+        ],
+    ] {
+        let o = arbor(dir.path(), args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim_end(), want, "{args:?}");
+        for out in ["out.png", "out.json", "hits.bin"] {
+            assert!(!dir.path().join(out).exists(), "{args:?} wrote {out}");
+        }
+    }
+}
+
+#[test]
+fn info_counts_only_faces_of_an_obj_with_polylines() {
+    let Some(models) = models() else { return };
+    let o = arbor(&models, &["info", "OBJ/testmixed.obj"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("triangles   12 unique, 12 as placed"), "{out}");
+}
+
+#[test]
+fn vertex_colours_show_in_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    // A green triangle by its vertex colours alone (no material).
+    std::fs::write(
+        dir.path().join("g.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n0 0 0 0 200 0\n1 0 0 0 200 0\n0 1 0 0 200 0\n3 0 1 2\n",
+    )
+    .unwrap();
+    let o = arbor(dir.path(), &["render", "g.ply", "-o", "g.png", "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = image::open(dir.path().join("g.png")).unwrap().to_rgb8();
+    let green = img
+        .pixels()
+        .filter(|p| p[1] > 60 && p[1] as u32 > 3 * (p[0] as u32 + p[2] as u32 + 1))
+        .count();
+    assert!(green > 500, "{green} green pixels");
+}
+
+#[test]
+fn up_and_camera_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("t.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n",
+    )
+    .unwrap();
+    let o = arbor(
+        dir.path(),
+        &[
+            "render", "t.obj", "--up", "-z", "--camera", "auto", "-o", "t.png", "-q",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(dir.path().join("t.png").is_file());
+    for bad in [&["--up", "w"][..], &["--camera", "front"]] {
+        let mut args = vec!["render", "t.obj", "-o", "bad.png"];
+        args.extend_from_slice(bad);
+        let o = arbor(dir.path(), &args);
+        assert_eq!(o.status.code(), Some(2), "{bad:?}");
+        assert!(!dir.path().join("bad.png").exists());
+    }
+}

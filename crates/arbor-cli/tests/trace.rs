@@ -424,7 +424,7 @@ fn shared_mesh(name: &str) -> Option<PathBuf> {
 /// bounding box, some with a short `tfar`, so that hits, misses and clipped
 /// rays all occur.
 fn rays_around(mesh: &Path, n: usize) -> Vec<Vec<u8>> {
-    let m = arbor::mesh::load_msh(mesh).unwrap();
+    let m = arbor::load::load_msh(mesh).unwrap();
     let (lo, hi) = m.positions.iter().fold(
         ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
         |(mut lo, mut hi), p| {

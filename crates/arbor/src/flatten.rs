@@ -86,6 +86,8 @@ pub struct FlatMesh {
     pub normals: Option<Vec<DVec3>>,
     /// Per-vertex texture coordinates.
     pub uvs: Option<Vec<DVec2>>,
+    /// Per-vertex linear colours.
+    pub colors: Option<Vec<DVec3>>,
     /// Triangles.
     pub triangles: Vec<[u32; 3]>,
     /// Back faces shaded like front faces ([`crate::surface::MeshSurface::two_sided`]).
@@ -106,6 +108,8 @@ pub struct Hit<'a> {
     pub normal: DVec3,
     /// Texture coordinates when the surface has them.
     pub uv: Option<DVec2>,
+    /// The interpolated vertex colour when the mesh has vertex colours.
+    pub color: Option<DVec3>,
     /// The surface's shader.
     pub shader: &'a Shader,
 }
@@ -252,6 +256,7 @@ impl FlatScene {
                             positions: corners.to_vec(),
                             normals: None,
                             uvs: None,
+                            colors: None,
                             triangles: tris.to_vec(),
                             two_sided: false,
                             transform,
@@ -281,6 +286,10 @@ impl FlatScene {
                         .map(|t| DVec2::new(t.x as f64, t.y as f64))
                         .collect()
                 });
+                let colors: Option<Vec<DVec3>> = data
+                    .colors
+                    .as_ref()
+                    .map(|cs| cs.iter().map(widen).collect());
                 let flat = match self.variant {
                     Variant::Cornell2010 => {
                         // Bake to world space, rounding each vertex to f32 as the
@@ -304,6 +313,7 @@ impl FlatScene {
                             positions,
                             normals,
                             uvs,
+                            colors,
                             triangles: data.triangles.clone(),
                             two_sided: mesh.two_sided,
                             transform: NO_TRANSFORM,
@@ -317,6 +327,7 @@ impl FlatScene {
                             .as_ref()
                             .map(|ns| ns.iter().map(widen).collect()),
                         uvs,
+                        colors,
                         triangles: data.triangles.clone(),
                         two_sided: mesh.two_sided,
                         transform: self.transform_index(m)?,
@@ -452,6 +463,7 @@ impl FlatScene {
             None => n.normalize(),
         };
         let mut uv = None;
+        let mut color = None;
         let normal = match prim.shape {
             Shape::Sphere { center, .. } => {
                 let n = (object_point - center).normalize();
@@ -478,6 +490,9 @@ impl FlatScene {
                 let [i0, i1, i2] = m.triangles[index as usize].map(|k| k as usize);
                 if let Some(uvs) = &m.uvs {
                     uv = Some(a * uvs[i0] + b * uvs[i1] + g * uvs[i2]);
+                }
+                if let Some(cs) = &m.colors {
+                    color = Some(a * cs[i0] + b * cs[i1] + g * cs[i2]);
                 }
                 let geometric = (p1 - p0).cross(p2 - p0);
                 let n = match &m.normals {
@@ -506,6 +521,7 @@ impl FlatScene {
             point,
             normal,
             uv,
+            color,
             shader: &self.shaders[prim.shader as usize],
         }
     }

@@ -52,6 +52,16 @@ pub enum Shader {
         /// Refractive index.
         refractive_index: f64,
     },
+    /// Light given off by a surface (glTF's emission), added to what the
+    /// shader under it reflects.
+    Emissive {
+        /// Emitted radiance, linear.
+        emission: DVec3,
+        /// Multiplies `emission` where the surface has texture coordinates.
+        texture: Option<Arc<Texture>>,
+        /// The shader of the reflected light.
+        surface: Arc<Shader>,
+    },
     /// 2015 debugging shader: the normal as a colour, `(n + 1) / 2`.
     RgbNormals,
     /// 2015 microfacet shader (the course left it unwritten; spec §6.5's placeholder).

@@ -13,8 +13,46 @@ pub enum Wrap {
     Repeat,
 }
 
-/// An 8-bit image used as a colour texture, texels scaled to `[0,1]` with no
-/// gamma decoding (spec §6.5).
+/// How a texture's 8-bit values become the linear colours shading uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelEncoding {
+    /// Values scaled to `[0,1]` with no decoding, as the Cornell framework
+    /// reads its textures (spec §6.5) and as its reference images show.
+    Raw,
+    /// sRGB-encoded values decoded to linear (the sRGB transfer function):
+    /// glTF colour textures by its specification, MTL textures by convention.
+    Srgb,
+}
+
+impl TexelEncoding {
+    /// The linear value of the byte `b`.
+    pub fn decode(self, b: u8) -> f64 {
+        let c = b as f64 / 255.0;
+        match self {
+            TexelEncoding::Raw => c,
+            TexelEncoding::Srgb => srgb_to_linear(c),
+        }
+    }
+}
+
+/// The linear value of an sRGB-encoded value `c` in `[0, 1]` (the sRGB
+/// transfer function; textures and vertex colours of models).
+/// Values outside `[0, 1]` are clamped to it, non-numbers read as 0.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    let c = if c.is_finite() {
+        c.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// An 8-bit image used as a colour texture, its texels linear colours
+/// (decoded by the [`TexelEncoding`] it was read with).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     /// Wrap mode.
@@ -31,27 +69,48 @@ impl Texture {
     /// Reads an image file (any format the `image` crate reads; its default
     /// limits bound the memory a hostile header can claim) as a texture.
     /// The error says what went wrong, without the path.
-    pub fn load(path: &Path, wrap: Wrap) -> Result<Texture, String> {
-        Self::from_image(image::open(path).map_err(|e| e.to_string())?, wrap)
+    pub fn load(path: &Path, wrap: Wrap, encoding: TexelEncoding) -> Result<Texture, String> {
+        Self::from_image(
+            image::open(path).map_err(|e| e.to_string())?,
+            wrap,
+            encoding,
+        )
     }
 
     /// Decodes an image file's bytes (the format guessed from them) as a
     /// texture, under the same limits as [`Texture::load`].
-    pub fn decode(bytes: &[u8], wrap: Wrap) -> Result<Texture, String> {
+    pub fn decode(bytes: &[u8], wrap: Wrap, encoding: TexelEncoding) -> Result<Texture, String> {
         Self::from_image(
             image::load_from_memory(bytes).map_err(|e| e.to_string())?,
             wrap,
+            encoding,
         )
     }
 
-    fn from_image(img: image::DynamicImage, wrap: Wrap) -> Result<Texture, String> {
+    /// The texture with every texel multiplied by `factor` (glTF's base
+    /// colour factor times its base colour texture).
+    pub fn tinted(&self, factor: DVec3) -> Texture {
+        Texture {
+            texels: self.texels.iter().map(|t| *t * factor).collect(),
+            ..self.clone()
+        }
+    }
+
+    fn from_image(
+        img: image::DynamicImage,
+        wrap: Wrap,
+        encoding: TexelEncoding,
+    ) -> Result<Texture, String> {
         let img = img.to_rgb8();
         if img.width() == 0 || img.height() == 0 {
             return Err("the image has no pixels".into());
         }
         let texels = img
             .pixels()
-            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) / 255.0)
+            .map(|p| {
+                let [r, g, b] = p.0.map(|c| encoding.decode(c));
+                DVec3::new(r, g, b)
+            })
             .collect();
         Ok(Texture {
             wrap,
@@ -176,4 +235,46 @@ pub fn read_pfm_cubemap(path: &std::path::Path, scale: f64) -> Result<CubeMap, S
         texels,
         scale,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 1x1 PNG of the colour `rgb`.
+    fn png(rgb: [u8; 3]) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
+            .write_to(
+                &mut std::io::Cursor::new(&mut bytes),
+                image::ImageFormat::Png,
+            )
+            .unwrap();
+        bytes
+    }
+
+    #[test]
+    fn srgb_texels_are_decoded_and_raw_ones_kept() {
+        let bytes = png([92, 135, 39]);
+        let raw = Texture::decode(&bytes, Wrap::Clamp, TexelEncoding::Raw).unwrap();
+        assert_eq!(raw.texels[0], DVec3::new(92.0, 135.0, 39.0) / 255.0);
+        let srgb = Texture::decode(&bytes, Wrap::Clamp, TexelEncoding::Srgb).unwrap();
+        // sRGB 92, 135, 39 are linear 0.107, 0.242, 0.020.
+        let want = DVec3::new(0.107023, 0.242281, 0.020289);
+        assert!(
+            (srgb.texels[0] - want).abs().max_element() < 1e-5,
+            "{}",
+            srgb.texels[0]
+        );
+        // The ends stay where they are.
+        assert_eq!(TexelEncoding::Srgb.decode(0), 0.0);
+        assert!((TexelEncoding::Srgb.decode(255) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn tinting_multiplies_every_texel() {
+        let t = Texture::decode(&png([255, 255, 255]), Wrap::Clamp, TexelEncoding::Raw).unwrap();
+        let tinted = t.tinted(DVec3::new(0.0, 0.16, 0.8));
+        assert_eq!(tinted.texels[0], DVec3::new(0.0, 0.16, 0.8));
+    }
 }

@@ -507,6 +507,7 @@ impl Tracer {
                     point: o + candidate.t * d,
                     normal: p.normal_to_world(local.normal),
                     uv: local.uv,
+                    color: local.color,
                     shader: local.shader,
                 }
             }

@@ -203,7 +203,7 @@ fn deep_nesting_is_a_clean_error_not_a_stack_overflow() {
 
 #[test]
 fn non_finite_vertices_are_dropped_not_traced() {
-    use arbor::mesh::MeshData;
+    use arbor::load::MeshData;
     use arbor::surface::{MeshSurface, Surface};
     use glam::Vec3;
     let mut scene = load("<scene><camera/><image>2 2</image></scene>");
@@ -217,6 +217,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
         ],
         normals: None,
         uvs: None,
+        colors: None,
         // A good triangle, one with a NaN corner, and a zero-area one (kept,
         // but never hit: Cramer's determinant is zero).
         triangles: vec![[0, 1, 2], [0, 3, 2], [0, 4, 4]],
@@ -248,7 +249,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
 /// disagree with it are left alone when they already face the ray.
 #[test]
 fn two_sided_meshes_turn_the_normal_to_the_ray() {
-    use arbor::mesh::MeshData;
+    use arbor::load::MeshData;
     use arbor::shader::Shader;
     use arbor::surface::{MeshSurface, Surface};
     use glam::Vec3;
@@ -262,6 +263,7 @@ fn two_sided_meshes_turn_the_normal_to_the_ray() {
                 positions: positions.clone(),
                 normals: normals.map(|n| vec![n; 3]),
                 uvs: None,
+                colors: None,
                 triangles: vec![[0, 1, 2]],
             }),
             shader: Arc::new(shader),
@@ -311,7 +313,7 @@ fn imported_models_are_two_sided() {
     )
     .unwrap();
     for path in [obj, stl] {
-        let model = arbor::model::load_model(&path).unwrap();
+        let model = arbor::load::load_model(&path).unwrap();
         assert!(!model.surfaces.is_empty());
         for s in &model.surfaces {
             match s {

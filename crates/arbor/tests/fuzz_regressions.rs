@@ -6,9 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use arbor::mesh::obj::{parse_obj, ObjRule};
-use arbor::mesh::MeshData;
-use arbor::model::{gltf, ply, stl};
+use arbor::load::obj_exact::{parse_obj, ObjRule};
+use arbor::load::MeshData;
+use arbor::load::{gltf, ply, stl};
 use arbor::surface::Surface;
 use glam::DMat4;
 
@@ -60,7 +60,7 @@ fn every_kept_artifact_replays_cleanly() {
     }
     for file in artifacts("msh") {
         let text = String::from_utf8_lossy(&std::fs::read(&file).unwrap()).into_owned();
-        if let Ok(m) = arbor::mesh::msh::parse_msh(&text, &file) {
+        if let Ok(m) = arbor::load::msh::parse_msh(&text, &file) {
             let n = m.positions.len() as u32;
             assert!(m.triangles.iter().flatten().all(|&i| i < n));
         }

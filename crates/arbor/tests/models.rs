@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::mesh::MeshError;
-use arbor::model::{frame, load_model, load_model_scene};
+use arbor::load::LoadError;
+use arbor::load::{frame, load_model, load_model_scene};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
 
@@ -247,7 +247,7 @@ fn concave_face_is_ear_clipped() {
     assert!(!covers);
 }
 
-fn err(path: &Path) -> MeshError {
+fn err(path: &Path) -> LoadError {
     match load_model_scene(path) {
         Ok(_) => panic!("{} loaded", path.display()),
         Err(e) => e,
@@ -519,4 +519,293 @@ fn the_engine_keeps_its_shared_meshes() {
         let e = err(&dir.join("glTF2").join(bad));
         assert!(e.to_string().starts_with(dir.to_str().unwrap()), "{e}");
     }
+}
+
+/// Colour textures are decoded from sRGB into linear colour: an MTL
+/// `map_Kd` texel (92, 135, 39) is linear (0.107, 0.242, 0.020), which the
+/// output's gamma brings back near the texel it was.
+#[test]
+fn model_textures_are_decoded_from_srgb() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = dir.path().join("t.obj");
+    std::fs::write(
+        &obj,
+        "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl t\nf 1/1 2/2 3/3\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("t.mtl"), "newmtl t\nmap_Kd t.png\n").unwrap();
+    image::RgbImage::from_pixel(1, 1, image::Rgb([92, 135, 39]))
+        .save(dir.path().join("t.png"))
+        .unwrap();
+    let m = load_model(&obj).unwrap();
+    let (shader, _) = &mesh_shaders(&m.surfaces)[0];
+    let t = texture_of(shader).expect("the material has a texture");
+    let want = glam::DVec3::new(0.107023, 0.242281, 0.020289);
+    assert!(
+        (t.texels[0] - want).abs().max_element() < 1e-5,
+        "{}",
+        t.texels[0]
+    );
+}
+
+/// glTF's base colour factor multiplies its base colour texture
+/// (`issue_3269/texcoord_crash.gltf`: one white-and-black image tinted four
+/// ways by four materials).
+#[test]
+fn gltf_base_colour_factor_tints_the_texture() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/issue_3269/texcoord_crash.gltf")).unwrap();
+    let mut tints = Vec::new();
+    for (shader, _) in mesh_shaders(&m.surfaces) {
+        if let Some(t) = texture_of(&shader) {
+            // The brightest texel is the factor itself (the image is white there).
+            let max = t
+                .texels
+                .iter()
+                .copied()
+                .fold(glam::DVec3::ZERO, glam::DVec3::max);
+            tints.push(max);
+        }
+    }
+    assert_eq!(tints.len(), 4, "{tints:?}");
+    for want in [
+        [0.0, 0.16, 0.8],
+        [0.0, 0.8, 0.0],
+        [0.8, 0.8, 0.0],
+        [0.8, 0.08, 0.0],
+    ] {
+        let want = glam::DVec3::from_array(want);
+        assert!(
+            tints.iter().any(|t| (*t - want).abs().max_element() < 1e-6),
+            "{want} not among {tints:?}"
+        );
+    }
+}
+
+/// OBJ `l` and `p` lines are not faces: `testmixed.obj` has 12 triangles
+/// and 12 polylines.
+#[test]
+fn obj_lines_and_points_are_not_faces() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/testmixed.obj")).unwrap();
+    assert_eq!(triangles(&m.surfaces), 12);
+    assert!(
+        m.warnings.iter().any(|w| w.contains("'l' and 'p'")),
+        "{:?}",
+        m.warnings
+    );
+}
+
+/// MTL libraries load in any byte encoding (Latin-1 bytes in `regr01.mtl`
+/// and `box_spaces.mtl`), a nameless `newmtl` is skipped with a warning
+/// naming the library and its line (`empty_mat.mtl`), and a UTF-16 OBJ
+/// with a byte-order mark is read.
+#[test]
+fn obj_and_mtl_in_any_encoding() {
+    let Some(dir) = models() else { return };
+    for file in ["OBJ/regr01.obj", "OBJ/box_mat_with_spaces.obj"] {
+        let m = load_model(&dir.join(file)).unwrap();
+        assert!(m.warnings.is_empty(), "{file}: {:?}", m.warnings);
+        let default = arbor::load::default_shader();
+        assert!(
+            mesh_shaders(&m.surfaces)
+                .iter()
+                .any(|(s, _)| **s != *default),
+            "{file}: every surface has the default material"
+        );
+    }
+    let m = load_model(&dir.join("OBJ/empty_mat.obj")).unwrap();
+    assert!(triangles(&m.surfaces) > 0);
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("empty_mat.mtl:3: warning: a material with no name")),
+        "{:?}",
+        m.warnings
+    );
+    let m = load_model(&dir.join("OBJ/box_UTF16BE.obj")).unwrap();
+    assert_eq!(triangles(&m.surfaces), 12);
+}
+
+/// glTF triangle strips and fans are triangulated (the asset generator's
+/// four files of two triangles each); a file of points fails with the
+/// warning that says why in its one line.
+#[test]
+fn gltf_strips_and_fans_render_and_points_say_why() {
+    let Some(dir) = models() else { return };
+    let modes = dir.join("glTF2/glTF-Asset-Generator/Mesh_PrimitiveMode");
+    for n in ["04", "05", "11", "12"] {
+        let m = load_model(&modes.join(format!("Mesh_PrimitiveMode_{n}.gltf")))
+            .unwrap_or_else(|e| panic!("{n}: {e}"));
+        assert_eq!(triangles(&m.surfaces), 2, "{n}");
+    }
+    let e = err(&modes.join("Mesh_PrimitiveMode_00.gltf"));
+    let text = e.to_string();
+    assert!(
+        text.contains("no triangles to render") && text.contains("Points primitive"),
+        "{text}"
+    );
+    assert_eq!(text.lines().count(), 1, "{text}");
+}
+
+/// What arbor cannot read is said in one line: glTF 1.0, an extension the
+/// file requires (named once), and files with no scene or no nodes fail
+/// because they hold nothing, not on the optional parts they leave out.
+#[test]
+fn gltf_unsupported_inputs_get_one_clear_line() {
+    let Some(dir) = models() else { return };
+    let e = err(&dir.join("glTF/BoxTextured-glTF/BoxTextured.gltf")).to_string();
+    assert!(
+        e.contains("glTF 1.0") && e.contains("arbor reads glTF 2.0"),
+        "{e}"
+    );
+    let e = err(&dir.join("glTF2/draco/2CylinderEngine.gltf")).to_string();
+    assert_eq!(e.matches("KHR_draco_mesh_compression").count(), 1, "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    for f in ["NoScene.gltf", "SceneWithoutNodes.gltf"] {
+        let e = err(&dir.join("glTF2/TestNoRootNode").join(f)).to_string();
+        assert!(e.contains("no triangles to render"), "{f}: {e}");
+    }
+}
+
+/// The colours of the mesh of a one-mesh model, if it has them.
+fn vertex_colors(path: &Path) -> Option<Vec<glam::Vec3>> {
+    let m = load_model(path).unwrap_or_else(|e| panic!("{e}"));
+    let mut out = None;
+    for s in &m.surfaces {
+        s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
+            if let Surface::Mesh(mesh) = leaf {
+                out = mesh.data.colors.clone();
+            }
+        });
+    }
+    out
+}
+
+/// Vertex colours are read and decoded from sRGB: OBJ's `v x y z r g b`
+/// (`cube_with_vertexcolors.obj`), PLY's `red`/`green`/`blue` as floats
+/// (`float-color.ply`) and as bytes (a file written here).
+#[test]
+fn vertex_colours_are_read_linear() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("c.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 188 0 0\n0 1 0 0 0 255\n3 0 1 2\n",
+    )
+    .unwrap();
+    let c = vertex_colors(&ply).expect("the PLY has colours");
+    assert_eq!(c[0], glam::Vec3::new(1.0, 0.0, 0.0));
+    assert!(
+        (c[1].x - 0.5029).abs() < 1e-3,
+        "sRGB 188 is linear 0.503: {}",
+        c[1]
+    );
+    assert_eq!(c[2], glam::Vec3::new(0.0, 0.0, 1.0));
+    let Some(models) = models() else { return };
+    let c = vertex_colors(&models.join("PLY/float-color.ply")).expect("float-color has colours");
+    assert!(
+        c.iter().all(|c| *c == glam::Vec3::new(0.0, 0.0, 1.0)),
+        "{c:?}"
+    );
+    let c = vertex_colors(&models.join("OBJ/cube_with_vertexcolors.obj"))
+        .expect("cube_with_vertexcolors has colours");
+    // Its first vertex: sRGB (0.48627, 0.43137, 0.47059).
+    let want = glam::Vec3::new(0.2016, 0.1559, 0.1878);
+    assert!(
+        c.iter().any(|c| (*c - want).abs().max_element() < 1e-3),
+        "{c:?}"
+    );
+}
+
+/// A model whose only face is degenerate (`number_formats.obj`) loads with a
+/// warning that nothing will show; a good model has no such warning.
+#[test]
+fn all_degenerate_models_are_warned_about() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("OBJ/number_formats.obj")).unwrap();
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("every triangle has zero area")),
+        "{:?}",
+        m.warnings
+    );
+    let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
+    assert!(m.warnings.is_empty(), "{:?}", m.warnings);
+}
+
+/// `up` turns a model: Wuson.stl read with y up (as its OBJ twin is) has
+/// the height its z-up default gives its depth; `auto_camera` drops the
+/// file's camera (2CylinderEngine.glb has one).
+#[test]
+fn model_options_turn_and_frame() {
+    use arbor::load::{load_model_with, ModelOptions, Up};
+    let Some(dir) = models() else { return };
+    let stl = dir.join("STL/Wuson.stl");
+    let (lo, hi) = frame::bounds(&load_model(&stl).unwrap().surfaces).unwrap();
+    let y_up = ModelOptions {
+        up: Some(Up::Y),
+        ..ModelOptions::default()
+    };
+    let (lo2, hi2) = frame::bounds(&load_model_with(&stl, &y_up).unwrap().surfaces).unwrap();
+    assert!(
+        ((hi2.y - lo2.y) - (hi.z - lo.z)).abs() < 1e-4,
+        "{lo2} {hi2} vs {lo} {hi}"
+    );
+    assert!(
+        ((hi2.z - lo2.z) - (hi.y - lo.y)).abs() < 1e-4,
+        "{lo2} {hi2} vs {lo} {hi}"
+    );
+    let glb = dir.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+    assert!(load_model(&glb).unwrap().camera.is_some());
+    let auto = ModelOptions {
+        auto_camera: true,
+        ..ModelOptions::default()
+    };
+    assert!(load_model_with(&glb, &auto).unwrap().camera.is_none());
+}
+
+/// glTF emission is added to the shaded colour: ClearCoatTest's label
+/// material (emissiveFactor 1 with an emissive texture) glows, the others
+/// (emissiveFactor 0) do not.
+#[test]
+fn gltf_emission_is_kept() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/ClearCoat-glTF/ClearCoatTest.gltf")).unwrap();
+    let shaders = mesh_shaders(&m.surfaces);
+    let glowing: Vec<_> = shaders
+        .iter()
+        .filter_map(|(s, _)| match &**s {
+            Shader::Emissive {
+                emission, texture, ..
+            } => Some((*emission, texture.is_some())),
+            _ => None,
+        })
+        .collect();
+    assert!(!glowing.is_empty(), "no emissive material");
+    assert!(
+        glowing
+            .iter()
+            .all(|(e, textured)| *e == glam::DVec3::ONE && *textured),
+        "{glowing:?}"
+    );
+    assert!(glowing.len() < shaders.len(), "every material glows");
+}
+
+/// glTF extensions arbor does not implement are named in a warning, not
+/// ignored without a word (`TextureTransformTest.gltf`).
+#[test]
+fn gltf_ignored_extensions_are_warned_about() {
+    let Some(dir) = models() else { return };
+    let m = load_model(&dir.join("glTF2/textureTransform/TextureTransformTest.gltf")).unwrap();
+    assert!(
+        m.warnings
+            .iter()
+            .any(|w| w.contains("arbor ignores") && w.contains("KHR_texture_transform")),
+        "{:?}",
+        m.warnings
+    );
 }

@@ -244,6 +244,17 @@ impl<'a> Integrator<'a> {
                 }
             }
             Shader::RgbNormals => (n + DVec3::ONE) / 2.0,
+            Shader::Emissive {
+                emission,
+                texture,
+                surface,
+            } => {
+                let glow = match (texture, hit.uv) {
+                    (Some(t), Some(uv)) => *emission * t.lookup(uv.x, uv.y),
+                    _ => *emission,
+                };
+                glow + self.shade(hit, surface, o, d, depth, contrib, stats)
+            }
             Shader::CookTorrance {
                 diffuse,
                 specular,
@@ -421,8 +432,10 @@ fn texture_or(
     hit: &Hit,
     base: DVec3,
 ) -> DVec3 {
+    // A texture first, then the mesh's vertex colours (models only; both
+    // linear), then the shader's own colour.
     match (texture, hit.uv) {
         (Some(t), Some(uv)) => t.lookup(uv.x, uv.y),
-        _ => base,
+        _ => hit.color.unwrap_or(base),
     }
 }

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use glam::{DMat4, DVec3};
 
-use crate::mesh::MeshData;
+use crate::load::MeshData;
 use crate::shader::Shader;
 
 pub mod box_;

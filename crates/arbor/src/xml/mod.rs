@@ -17,13 +17,12 @@ use roxmltree::{Document, Node};
 
 use crate::camera::{Camera, CameraKind};
 use crate::light::Light;
-use crate::mesh::obj::{load_obj, ObjRule};
-use crate::mesh::{msh::load_msh, MeshData, MeshError};
+use crate::load::{load_mesh, Format, LoadError, MeshData, ObjRule};
 use crate::scene::{Scene, Variant};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::transformed::{rotation_degrees, scaling, translation};
 use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
-use crate::texture::{CubeMap, Texture, Wrap};
+use crate::texture::{CubeMap, TexelEncoding, Texture, Wrap};
 
 mod values;
 
@@ -38,50 +37,6 @@ pub const MAX_SAMPLES: i64 = 1 << 16;
 /// Deepest group nesting accepted (deeper scenes would exhaust the stack).
 pub const MAX_NESTING: usize = 1_000;
 
-/// A scene file that could not be loaded.
-#[derive(Debug)]
-pub enum SceneError {
-    /// A problem at a place in the scene file.
-    At {
-        /// The scene file.
-        path: PathBuf,
-        /// 1-based line.
-        line: u32,
-        /// 1-based column.
-        column: u32,
-        /// What is wrong and what was expected.
-        message: String,
-    },
-    /// The scene file itself could not be read.
-    Unreadable {
-        /// The scene file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// A mesh file the scene names is missing or malformed.
-    Mesh(MeshError),
-}
-
-impl fmt::Display for SceneError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            SceneError::At {
-                path,
-                line,
-                column,
-                message,
-            } => write!(f, "{}:{line}:{column}: {message}", path.display()),
-            SceneError::Unreadable { path, source } => {
-                write!(f, "{}: cannot read scene file: {source}", path.display())
-            }
-            SceneError::Mesh(e) => e.fmt(f),
-        }
-    }
-}
-
-impl std::error::Error for SceneError {}
-
 /// A loaded scene and the warnings met on the way (unknown attributes,
 /// skipped polygons, ...), each already located as `FILE:LINE:COL: ...`.
 #[derive(Debug)]
@@ -95,10 +50,8 @@ pub struct LoadedScene {
 /// Reads and parses the scene file at `path`; meshes are resolved relative
 /// to its folder.
 pub fn load_scene(path: &Path) -> Result<LoadedScene> {
-    let text = std::fs::read_to_string(path).map_err(|source| SceneError::Unreadable {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| LoadError::file(path, format!("cannot read scene file: {e}")))?;
     parse_scene(&text, path)
 }
 
@@ -107,12 +60,12 @@ pub fn load_scene(path: &Path) -> Result<LoadedScene> {
 pub fn parse_scene(text: &str, path: &Path) -> Result<LoadedScene> {
     let doc = Document::parse(text).map_err(|e| {
         let pos = e.pos();
-        SceneError::At {
-            path: path.to_path_buf(),
-            line: pos.row,
-            column: pos.col,
-            message: format!("malformed XML: {e}"),
-        }
+        LoadError::at_column(
+            path,
+            pos.row as usize,
+            pos.col as usize,
+            format!("malformed XML: {e}"),
+        )
     })?;
     let root = doc.root_element();
     let variant = detect_variant(root);
@@ -193,7 +146,7 @@ struct Loader<'a, 'input> {
     resolving: Vec<String>,
 }
 
-type Result<T> = std::result::Result<T, SceneError>;
+type Result<T> = std::result::Result<T, LoadError>;
 
 /// The element's name as written.
 fn tag<'a>(node: Node<'a, '_>) -> &'a str {
@@ -210,14 +163,9 @@ fn elements<'a, 'input>(node: Node<'a, 'input>) -> impl Iterator<Item = Node<'a,
 }
 
 impl<'a, 'input> Loader<'a, 'input> {
-    fn error(&self, node: Node, message: impl Into<String>) -> SceneError {
+    fn error(&self, node: Node, message: impl Into<String>) -> LoadError {
         let pos = self.doc.text_pos_at(node.range().start);
-        SceneError::At {
-            path: self.path.to_path_buf(),
-            line: pos.row,
-            column: pos.col,
-            message: message.into(),
-        }
+        LoadError::at_column(self.path, pos.row as usize, pos.col as usize, message)
     }
 
     fn warn(&mut self, node: Node, message: impl fmt::Display) {
@@ -234,7 +182,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         self.variant == Variant::Cornell2015
     }
 
-    fn unknown_element(&self, child: Node, parent: &str, expected: &[&str]) -> SceneError {
+    fn unknown_element(&self, child: Node, parent: &str, expected: &[&str]) -> LoadError {
         self.error(
             child,
             format!(
@@ -283,7 +231,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         }
     }
 
-    fn wrong_kind(&self, node: Node, found: &Named, expected: &str) -> SceneError {
+    fn wrong_kind(&self, node: Node, found: &Named, expected: &str) -> LoadError {
         self.error(
             node,
             format!(
@@ -754,7 +702,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         let (at, file) =
             file.ok_or_else(|| self.error(node, "a texture needs an <image> file name"))?;
         let path = self.dir.join(&file);
-        let texture = Arc::new(Texture::load(&path, wrap).map_err(|e| {
+        let texture = Arc::new(Texture::load(&path, wrap, TexelEncoding::Raw).map_err(|e| {
             self.error(
                 at,
                 format!("cannot read texture image '{}': {e}", path.display()),
@@ -1015,34 +963,28 @@ impl<'a, 'input> Loader<'a, 'input> {
         if !path.is_file() {
             return Err(self.error(at, format!("mesh file '{}' not found", path.display())));
         }
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let data = match ext.as_deref() {
-            Some("msh") => load_msh(&path).map_err(SceneError::Mesh)?,
-            Some("obj") => {
-                let obj = load_obj(&path, ObjRule::Cornell2015).map_err(SceneError::Mesh)?;
-                if obj.skipped_polygons > 0 {
-                    self.warn(
-                        at,
-                        format!(
-                            "{}: skipped {} faces with more than 3 corners (the 2015 reader accepts triangles only)",
-                            path.display(),
-                            obj.skipped_polygons
-                        ),
-                    );
-                }
-                obj.mesh
-            }
-            Some("ply" | "stl") => crate::model::load_mesh_data(&path).map_err(SceneError::Mesh)?,
-            _ => {
-                return Err(self.error(
-                    at,
-                    format!("mesh file '{file}' has an unknown type; expected a .msh, .obj, .ply or .stl file"),
-                ))
-            }
-        };
+        let format = Format::from_path(&path).map_err(|e| self.error(at, e.to_string()))?;
+        if !format.is_mesh() {
+            return Err(self.error(
+                at,
+                format!(
+                    "mesh file '{file}' is a .{} file; expected a .msh, .obj, .ply or .stl mesh",
+                    format.extension()
+                ),
+            ));
+        }
+        let loaded = load_mesh(&path, ObjRule::Cornell2015)?;
+        if loaded.skipped_polygons > 0 {
+            self.warn(
+                at,
+                format!(
+                    "{}: skipped {} faces with more than 3 corners (the 2015 reader accepts triangles only)",
+                    path.display(),
+                    loaded.skipped_polygons
+                ),
+            );
+        }
+        let data = loaded.mesh;
         let data = Arc::new(data);
         self.meshes.insert(path, data.clone());
         Ok(data)

@@ -14,8 +14,8 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::msh::shorten;
-use super::{MeshData, MeshError};
+use super::shorten;
+use super::{LoadError, LoadedMesh, MeshData};
 
 /// Which triangles an OBJ file yields, and how they are numbered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -23,7 +23,7 @@ pub enum ObjRule {
     /// The Cornell 2015 framework's reader (scene format §5.4): `v`/`vn` need
     /// exactly 4 tokens and `vt` exactly 3; an `f` line with exactly 3
     /// corners is a triangle, one with more is skipped (and counted in
-    /// [`ObjMesh::skipped_polygons`]); corners are `p`, `p/t`, `p/t/n` or
+    /// [`LoadedMesh::skipped_polygons`]); corners are `p`, `p/t`, `p/t/n` or
     /// `p//n`, 1-based, never negative; vertices are deduplicated by their
     /// (p, t, n) triple in order of first use; the mesh has normals (UVs) when
     /// any `vn` (`vt`) line is present. A corner without a normal (UV) in such
@@ -39,25 +39,15 @@ pub enum ObjRule {
     Fan,
 }
 
-/// An OBJ mesh and what the reader dropped.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ObjMesh {
-    /// The triangles.
-    pub mesh: MeshData,
-    /// `f` lines with more than 3 corners that [`ObjRule::Cornell2015`]
-    /// skipped, so that the caller can warn (always 0 for [`ObjRule::Fan`]).
-    pub skipped_polygons: usize,
-}
-
 /// Reads an OBJ file under `rule`. Every error names the file and, where one
 /// applies, the 1-based line.
-pub fn load_obj(path: &Path, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+pub fn load_obj(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
     let text = super::read_text(path)?;
     parse_obj(&text, path, rule)
 }
 
 /// Parses OBJ text under `rule`; `path` is only used in error messages.
-pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+pub fn parse_obj(text: &str, path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
     let mut reader = Reader::new(path, rule);
     for (i, line) in text.split('\n').enumerate() {
         let line = line.strip_suffix('\r').unwrap_or(line);
@@ -141,11 +131,11 @@ impl<'p> Reader<'p> {
         }
     }
 
-    fn err(&self, line: usize, message: impl Into<String>) -> MeshError {
-        MeshError::at(self.path, line, message)
+    fn err(&self, line: usize, message: impl Into<String>) -> LoadError {
+        LoadError::at(self.path, line, message)
     }
 
-    fn line(&mut self, line_no: usize, line: &str) -> Result<(), MeshError> {
+    fn line(&mut self, line_no: usize, line: &str) -> Result<(), LoadError> {
         let mut tokens = line.split_whitespace();
         let Some(kind) = tokens.next() else {
             return Ok(());
@@ -185,7 +175,7 @@ impl<'p> Reader<'p> {
         kind: &str,
         rest: &[&str],
         exact: bool,
-    ) -> Result<[f32; N], MeshError> {
+    ) -> Result<[f32; N], LoadError> {
         if rest.len() < N || (exact && rest.len() > N) {
             let need = if exact { "exactly" } else { "at least" };
             return Err(self.err(
@@ -231,7 +221,7 @@ impl<'p> Reader<'p> {
         token: &str,
         target: Target,
         allow_negative: bool,
-    ) -> Result<u32, MeshError> {
+    ) -> Result<u32, LoadError> {
         let noun = target.noun();
         let Ok(written) = token.parse::<i64>() else {
             return Err(self.err(
@@ -288,7 +278,7 @@ impl<'p> Reader<'p> {
         Ok((written - 1) as u32)
     }
 
-    fn cornell_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), MeshError> {
+    fn cornell_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), LoadError> {
         if corners.len() > 3 {
             // The 2015 framework drops polygons; the caller may warn.
             self.skipped += 1;
@@ -343,7 +333,7 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
-    fn fan_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), MeshError> {
+    fn fan_face(&mut self, line_no: usize, corners: &[&str]) -> Result<(), LoadError> {
         if corners.len() < 3 {
             return Err(self.err(
                 line_no,
@@ -366,7 +356,7 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
-    fn finish(self) -> Result<ObjMesh, MeshError> {
+    fn finish(self) -> Result<LoadedMesh, LoadError> {
         // Forward references are in file order, so the first bad one is reported.
         for p in &self.pending {
             let defined = self.defined(p.target);
@@ -388,6 +378,7 @@ impl<'p> Reader<'p> {
                 positions: self.positions,
                 normals: None,
                 uvs: None,
+                colors: None,
                 triangles: self.triangles,
             },
             ObjRule::Cornell2015 => {
@@ -414,11 +405,12 @@ impl<'p> Reader<'p> {
                     positions,
                     normals,
                     uvs,
+                    colors: None,
                     triangles: self.triangles,
                 }
             }
         };
-        Ok(ObjMesh {
+        Ok(LoadedMesh {
             mesh,
             skipped_polygons: self.skipped,
         })
@@ -429,11 +421,11 @@ impl<'p> Reader<'p> {
 mod tests {
     use super::*;
 
-    fn parse(text: &str, rule: ObjRule) -> Result<ObjMesh, MeshError> {
+    fn parse(text: &str, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
         parse_obj(text, Path::new("m.obj"), rule)
     }
 
-    fn err(text: &str, rule: ObjRule) -> MeshError {
+    fn err(text: &str, rule: ObjRule) -> LoadError {
         parse(text, rule).expect_err("expected an error")
     }
 

@@ -14,17 +14,17 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::{MeshData, MeshError};
+use super::{shorten, LoadError, MeshData};
 
 /// Reads a `.msh` file. Every error names the file and, where one applies,
 /// the 1-based line.
-pub fn load_msh(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load_msh(path: &Path) -> Result<MeshData, LoadError> {
     let text = super::read_text(path)?;
     parse_msh(&text, path)
 }
 
 /// Parses the text of a `.msh` file; `path` is only used in error messages.
-pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, MeshError> {
+pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, LoadError> {
     let mut lines = Lines::new(text);
     let n_points = header_count(&mut lines, path, 1, "vertex count")?;
     let n_triangles = header_count(&mut lines, path, 2, "triangle count")?;
@@ -37,7 +37,7 @@ pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, MeshError> {
             continue;
         };
         if let Some(first) = sections.seen(kind) {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 line_no,
                 format!(
@@ -90,7 +90,7 @@ pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, MeshError> {
 
     let end_line = lines.last_line();
     let missing = |what: &str| {
-        MeshError::at(
+        LoadError::at(
             path,
             end_line,
             format!("the file ends without the required '{what}' section"),
@@ -102,6 +102,7 @@ pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, MeshError> {
         positions,
         normals: sections.normals.map(|(_, n)| n),
         uvs: sections.texcoords.map(|(_, t)| t),
+        colors: None,
         triangles,
     })
 }
@@ -121,9 +122,9 @@ fn header_count(
     path: &Path,
     expected: usize,
     what: &str,
-) -> Result<usize, MeshError> {
+) -> Result<usize, LoadError> {
     let Some((line_no, line)) = lines.next() else {
-        return Err(MeshError::at(
+        return Err(LoadError::at(
             path,
             expected,
             format!("expected the {what} on line {expected}, but the file ends"),
@@ -131,7 +132,7 @@ fn header_count(
     };
     let token = line.trim();
     token.parse::<usize>().map_err(|_| {
-        MeshError::at(
+        LoadError::at(
             path,
             line_no,
             format!(
@@ -152,9 +153,9 @@ fn check_counts(
     n_points: usize,
     n_triangles: usize,
     path: &Path,
-) -> Result<(), MeshError> {
+) -> Result<(), LoadError> {
     if n_points > u32::MAX as usize {
-        return Err(MeshError::at(
+        return Err(LoadError::at(
             path,
             1,
             format!(
@@ -168,7 +169,7 @@ fn check_counts(
         .and_then(|n| n.checked_mul(3));
     match needed {
         Some(needed) if needed <= capacity => Ok(()),
-        _ => Err(MeshError::at(
+        _ => Err(LoadError::at(
             path,
             2,
             format!(
@@ -270,10 +271,10 @@ impl SectionReader<'_> {
         &self,
         lines: &mut Lines<'t>,
         index: usize,
-    ) -> Result<(usize, &'t str), MeshError> {
+    ) -> Result<(usize, &'t str), LoadError> {
         loop {
             let Some((line_no, line)) = lines.next() else {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     self.path,
                     lines.last_line(),
                     format!(
@@ -290,7 +291,7 @@ impl SectionReader<'_> {
                 continue;
             }
             if let Some(next) = Section::from_keyword(token) {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     self.path,
                     line_no,
                     format!(
@@ -307,8 +308,8 @@ impl SectionReader<'_> {
         }
     }
 
-    fn not_a_number(&self, line_no: usize, token: &str, expected: &str) -> MeshError {
-        MeshError::at(
+    fn not_a_number(&self, line_no: usize, token: &str, expected: &str) -> LoadError {
+        LoadError::at(
             self.path,
             line_no,
             format!(
@@ -324,7 +325,7 @@ impl SectionReader<'_> {
         &self,
         lines: &mut Lines<'_>,
         mut sink: impl FnMut(usize, f32),
-    ) -> Result<(), MeshError> {
+    ) -> Result<(), LoadError> {
         for i in 0..self.total {
             let (line_no, token) = self.next_token(lines, i)?;
             match token.parse::<f32>() {
@@ -340,14 +341,14 @@ impl SectionReader<'_> {
         lines: &mut Lines<'_>,
         n_points: usize,
         mut sink: impl FnMut(usize, u32),
-    ) -> Result<(), MeshError> {
+    ) -> Result<(), LoadError> {
         for i in 0..self.total {
             let (line_no, token) = self.next_token(lines, i)?;
             let Ok(index) = token.parse::<i64>() else {
                 return Err(self.not_a_number(line_no, token, "an integer"));
             };
             if index < 0 || index as u64 >= n_points as u64 {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     self.path,
                     line_no,
                     format!(
@@ -394,26 +395,15 @@ impl<'t> Iterator for Lines<'t> {
     }
 }
 
-/// A token cut to a readable length for an error message.
-pub(super) fn shorten(token: &str) -> String {
-    const MAX: usize = 40;
-    if token.chars().count() <= MAX {
-        token.to_string()
-    } else {
-        let cut: String = token.chars().take(MAX).collect();
-        format!("{cut}...")
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn parse(text: &str) -> Result<MeshData, MeshError> {
+    fn parse(text: &str) -> Result<MeshData, LoadError> {
         parse_msh(text, Path::new("m.msh"))
     }
 
-    fn err(text: &str) -> MeshError {
+    fn err(text: &str) -> LoadError {
         parse(text).expect_err("expected an error")
     }
 

@@ -13,8 +13,8 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::short;
-use crate::mesh::{MeshData, MeshError};
+use super::shorten;
+use crate::load::{LoadError, MeshData};
 
 /// Size of a binary STL header plus its triangle count.
 const BINARY_HEADER: usize = 84;
@@ -22,15 +22,15 @@ const BINARY_HEADER: usize = 84;
 const BINARY_RECORD: usize = 50;
 
 /// Reads the STL file at `path` (ASCII or binary, by content).
-pub fn load(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load(path: &Path) -> Result<MeshData, LoadError> {
     let bytes = super::read_bytes(path)?;
     parse(&bytes, path)
 }
 
 /// Parses STL bytes; `path` is only used in error messages.
-pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
+pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     if bytes.is_empty() {
-        return Err(MeshError::file(path, "the file is empty"));
+        return Err(LoadError::file(path, "the file is empty"));
     }
     let binary_count = (bytes.len() >= BINARY_HEADER)
         .then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize);
@@ -50,7 +50,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
         parse_ascii(bytes, path)?
     };
     if mesh.triangles.is_empty() {
-        return Err(MeshError::file(path, "the file has no triangles"));
+        return Err(LoadError::file(path, "the file has no triangles"));
     }
     super::check_finite(path, &mesh.positions)?;
     Ok(mesh)
@@ -80,9 +80,9 @@ impl Builder {
     }
 }
 
-fn parse_binary(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
+fn parse_binary(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     if bytes.len() < BINARY_HEADER {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             format!(
                 "not an ASCII STL (no 'solid') and too short for a binary one ({} bytes, the header alone is 84)",
@@ -94,7 +94,7 @@ fn parse_binary(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     let available = (bytes.len() - BINARY_HEADER) as u64 / BINARY_RECORD as u64;
     // The count is checked against the file before anything is allocated.
     if count > available {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             format!(
                 "binary STL header promises {count} triangles but the file holds only {available} ({} bytes)",
@@ -118,7 +118,7 @@ fn parse_binary(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     Ok(b.mesh)
 }
 
-fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
+fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     let text = String::from_utf8_lossy(bytes);
     let mut b = Builder::default();
     let mut corners: Vec<Vec3> = Vec::with_capacity(3);
@@ -129,7 +129,7 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
         match tokens.next() {
             Some("facet") => {
                 if facet_line != 0 {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
                         format!("'facet' before the facet of line {facet_line} ended"),
@@ -140,21 +140,21 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             }
             Some("vertex") => {
                 if facet_line == 0 {
-                    return Err(MeshError::at(path, line_no, "'vertex' outside a facet"));
+                    return Err(LoadError::at(path, line_no, "'vertex' outside a facet"));
                 }
                 let mut v = [0f32; 3];
                 for slot in &mut v {
                     let tok = tokens.next().unwrap_or("");
                     *slot = tok.parse().map_err(|_| {
-                        MeshError::at(
+                        LoadError::at(
                             path,
                             line_no,
-                            format!("'vertex' expects 3 numbers, found '{}'", short(tok)),
+                            format!("'vertex' expects 3 numbers, found '{}'", shorten(tok)),
                         )
                     })?;
                 }
                 if corners.len() == 3 {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
                         "a facet has more than 3 vertices",
@@ -164,7 +164,7 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             }
             Some("endfacet") => {
                 if corners.len() != 3 {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
                         format!("a facet needs 3 vertices, this one has {}", corners.len()),
@@ -175,16 +175,16 @@ fn parse_ascii(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             }
             Some("solid" | "endsolid" | "outer" | "endloop") | None => {}
             Some(other) => {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     path,
                     line_no,
-                    format!("unexpected '{}' in an ASCII STL file", short(other)),
+                    format!("unexpected '{}' in an ASCII STL file", shorten(other)),
                 ))
             }
         }
     }
     if facet_line != 0 {
-        return Err(MeshError::at(
+        return Err(LoadError::at(
             path,
             facet_line,
             "the file ends inside this facet",

@@ -27,26 +27,27 @@
 //! library is a warning, not an error.
 
 use crate::hash_map::HashMap;
+use std::cell::RefCell;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{DVec3, Vec2, Vec3};
 
+use super::mtl;
 use super::triangulate::triangulate;
-use super::{default_shader, short, Model, ModelStats};
-use crate::mesh::{MeshData, MeshError};
+use super::{default_shader, shorten, Model, ModelStats};
+use crate::load::{LoadError, MeshData};
 use crate::shader::{Fresnel, Shader};
 use crate::surface::{MeshSurface, Surface};
-use crate::texture::{Texture, Wrap};
+use crate::texture::{srgb_to_linear, TexelEncoding, Texture, Wrap};
 
 /// Imports the OBJ file at `path` with its material library.
-pub fn load(path: &Path) -> Result<Model, MeshError> {
+pub fn load(path: &Path) -> Result<Model, LoadError> {
     let bytes = super::read_bytes(path)?;
-    let text = String::from_utf8_lossy(&bytes);
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let text = super::decode_text(&bytes, path)?;
     let mut warnings = Vec::new();
-    let clean = prepass(text, path, &mut warnings)?;
+    let clean = prepass(&text, path, &mut warnings)?;
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: false,
@@ -54,16 +55,28 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         ignore_lines: true,
     };
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    // Libraries are read by us (any encoding, warnings naming them); tobj
+    // only merges what they hold.
+    let library_warnings = RefCell::new(Vec::new());
     let (models, materials) =
         tobj::load_obj_buf(&mut Cursor::new(clean.as_bytes()), &options, |p| {
             let p = dir.join(p);
-            if p.is_file() {
-                tobj::load_mtl(&p)
+            let mut warnings = library_warnings.borrow_mut();
+            let materials = if p.is_file() {
+                mtl::load_library(&p, &mut warnings)
             } else {
-                Err(tobj::LoadError::OpenFileFailed)
-            }
+                warnings.push(format!(
+                    "{}: warning: the material library named by {} is not there; using the default material",
+                    p.display(),
+                    path.display()
+                ));
+                Vec::new()
+            };
+            let names = mtl::index(&materials);
+            Ok((materials, names))
         })
-        .map_err(|e| MeshError::file(path, format!("malformed OBJ file: {e}")))?;
+        .map_err(|e| LoadError::file(path, format!("malformed OBJ file: {e}")))?;
+    warnings.extend(library_warnings.into_inner());
     let materials = match materials {
         Ok(m) => m,
         Err(e) => {
@@ -94,6 +107,16 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
                     .map(|c| Vec3::new(c[0], c[1], c[2]))
                     .collect()
             }),
+            colors: (mesh.vertex_color.len() == mesh.positions.len() && !positions.is_empty())
+                .then(|| {
+                    mesh.vertex_color
+                        .chunks_exact(3)
+                        .map(|c| {
+                            let linear = |v: f32| srgb_to_linear(v as f64) as f32;
+                            Vec3::new(linear(c[0]), linear(c[1]), linear(c[2]))
+                        })
+                        .collect()
+                }),
             uvs: (mesh.texcoords.len() / 2 == positions.len() && !positions.is_empty()).then(
                 || {
                     mesh.texcoords
@@ -163,7 +186,7 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
         ));
     }
     if surfaces.is_empty() {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no faces to render (an empty file or a point cloud?)",
         ));
@@ -220,7 +243,7 @@ impl<'a> Textures<'a> {
         if let Some(t) = self.loaded.get(&path) {
             return Some(t.clone());
         }
-        match Texture::load(&path, Wrap::Repeat) {
+        match Texture::load(&path, Wrap::Repeat, TexelEncoding::Srgb) {
             Ok(t) => {
                 let t = Arc::new(t);
                 self.loaded.insert(path, t.clone());
@@ -303,12 +326,21 @@ fn lenient_number(token: &str) -> Option<(f32, bool)> {
 /// Checks the lines `tobj` would reject or misread and returns the text to
 /// give it: vertex lines re-printed with clean numbers, bad `f` lines
 /// reported with their line number.
-fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, MeshError> {
+fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, LoadError> {
     let mut out = String::with_capacity(text.len() + 64);
+    // Vertex colours (`v x y z r g b`) are kept only when every vertex has
+    // them: tobj would pair a partial list with the wrong vertices.
+    let colours = {
+        let mut vs = text.lines().filter(|l| l.trim_start().starts_with("v "));
+        let counts = |l: &str| l.split('#').next().unwrap_or("").split_whitespace().count();
+        let first = vs.next();
+        first.is_some_and(|f| counts(f) >= 7) && vs.all(|l| counts(l) >= 7)
+    };
     let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
     let mut faces = 0usize;
     let mut odd_numbers = 0usize;
     let mut short_faces = 0usize;
+    let mut not_faces = 0usize;
     let mut first_odd = 0usize;
     for (i, raw) in text.split('\n').enumerate() {
         let line_no = i + 1;
@@ -323,12 +355,17 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
         };
         if let Some(needed) = needed {
             let mut values = Vec::with_capacity(3);
-            for tok in tokens.by_ref().take(if keyword == "vt" { 2 } else { 3 }) {
+            let take = match keyword {
+                "vt" => 2,
+                "v" if colours => 6,
+                _ => 3,
+            };
+            for tok in tokens.by_ref().take(take) {
                 let Some((v, odd)) = lenient_number(tok) else {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
-                        format!("'{keyword}' expects numbers, found '{}'", short(tok)),
+                        format!("'{keyword}' expects numbers, found '{}'", shorten(tok)),
                     ));
                 };
                 if odd {
@@ -340,7 +377,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                 values.push(v);
             }
             if values.len() < needed {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     path,
                     line_no,
                     format!("'{keyword}' expects {needed} numbers or more"),
@@ -359,6 +396,19 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             }
             continue;
         }
+        if keyword == "usemtl" && body.split_whitespace().nth(1).is_none() {
+            // `usemtl` naming nothing (after a nameless `newmtl`): the faces
+            // have no material. tobj refuses the empty name; a name no
+            // library can define (a control character) gives the same.
+            out.push_str("usemtl \u{1}\n");
+            continue;
+        }
+        if keyword == "l" || keyword == "p" {
+            // Polylines and points have no area: not faces, not drawn.
+            not_faces += 1;
+            out.push('\n');
+            continue;
+        }
         if keyword == "f" {
             let corners: Vec<&str> = tokens.collect();
             if corners.len() < 3 {
@@ -369,10 +419,10 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             for c in &corners {
                 let parts: Vec<&str> = c.split('/').collect();
                 if parts.len() > 3 || parts[0].is_empty() {
-                    return Err(MeshError::at(
+                    return Err(LoadError::at(
                         path,
                         line_no,
-                        format!("malformed face corner '{}'", short(c)),
+                        format!("malformed face corner '{}'", shorten(c)),
                     ));
                 }
                 for (k, (part, count, noun)) in parts
@@ -385,10 +435,10 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                         continue;
                     }
                     let Ok(idx) = part.parse::<i64>() else {
-                        return Err(MeshError::at(
+                        return Err(LoadError::at(
                             path,
                             line_no,
-                            format!("malformed face corner '{}'", short(c)),
+                            format!("malformed face corner '{}'", shorten(c)),
                         ));
                     };
                     // 1-based; negative counts back from the last one defined.
@@ -398,7 +448,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
                         idx < 0 && -idx <= count
                     };
                     if !ok {
-                        return Err(MeshError::at(
+                        return Err(LoadError::at(
                             path,
                             line_no,
                             format!(
@@ -419,6 +469,12 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             path.display()
         ));
     }
+    if not_faces > 0 {
+        warnings.push(format!(
+            "{}: warning: skipped {not_faces} 'l' and 'p' lines (polylines and points have no area to render)",
+            path.display()
+        ));
+    }
     if short_faces > 0 {
         warnings.push(format!(
             "{}: warning: skipped {short_faces} faces with fewer than 3 corners",
@@ -426,7 +482,7 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
         ));
     }
     if faces == 0 {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             if nv == 0 {
                 "the file has no vertices and no faces (is it empty?)"

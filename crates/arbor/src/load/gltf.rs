@@ -30,14 +30,14 @@ use gltf::mesh::Mode;
 use super::{Model, ModelStats};
 use crate::camera::{Camera, CameraKind};
 use crate::flatten::DEFAULT_MAX_PLACEMENTS;
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{LoadError, MeshData};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
-use crate::texture::{Texture, Wrap};
+use crate::texture::{TexelEncoding, Texture, Wrap};
 
 /// Imports the glTF or GLB file at `path`, external buffers resolved
 /// beside it.
-pub fn load(path: &Path) -> Result<Model, MeshError> {
+pub fn load(path: &Path) -> Result<Model, LoadError> {
     let bytes = super::read_bytes(path)?;
     parse(&bytes, path, Some(path.parent().unwrap_or(Path::new("."))))
 }
@@ -45,9 +45,9 @@ pub fn load(path: &Path) -> Result<Model, MeshError> {
 /// Imports glTF JSON or GLB bytes; `path` is only used in messages. Buffers
 /// given by a relative or `file:` URI are read from the folder `base`;
 /// without one only embedded buffers (GLB binary chunk, `data:` URIs) load.
-pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, MeshError> {
+pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, LoadError> {
     if bytes.is_empty() {
-        return Err(MeshError::file(path, "the file is empty"));
+        return Err(LoadError::file(path, "the file is empty"));
     }
     // A GLB header's total length below the header's own 12 bytes: the
     // crate subtracts 12 from it unchecked (an overflow panic in a debug
@@ -55,14 +55,37 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     if bytes.starts_with(b"glTF") {
         if let Some(&[a, b, c, d]) = bytes.get(8..12) {
             if u32::from_le_bytes([a, b, c, d]) < 12 {
-                return Err(MeshError::file(
+                return Err(LoadError::file(
                     path,
                     "the GLB header gives a length shorter than the header",
                 ));
             }
         }
     }
-    let invalid = |e: gltf::Error| MeshError::file(path, format!("not a valid glTF 2.0 file: {e}"));
+    let prepared = if bytes.starts_with(b"glTF") {
+        if bytes.get(4..8) == Some(&1u32.to_le_bytes()[..]) {
+            return Err(LoadError::file(
+                path,
+                "a glTF 1.0 binary file; arbor reads glTF 2.0",
+            ));
+        }
+        // The JSON chunk is checked; it is not rewritten.
+        if let Some(json) = glb_json_chunk(bytes) {
+            prepare_json(json, path)?;
+        }
+        None
+    } else {
+        prepare_json(bytes, path)?
+    };
+    let bytes = prepared.as_deref().unwrap_or(bytes);
+    let json = if bytes.starts_with(b"glTF") {
+        glb_json_chunk(bytes).unwrap_or_default()
+    } else {
+        bytes
+    };
+    let emissive_strengths = emissive_strengths(json);
+    let ignored = ignored_extensions(json);
+    let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
     // POSITION before checking that index: check it first.
@@ -73,7 +96,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
                 gltf::Semantic::Positions,
             ));
             if position.is_some_and(|a| a.value() >= json.accessors.len()) {
-                return Err(MeshError::file(
+                return Err(LoadError::file(
                     path,
                     format!("mesh {m}: POSITION names an accessor that does not exist"),
                 ));
@@ -83,7 +106,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     gltf.document = gltf::Document::from_json(gltf.document.into_json()).map_err(invalid)?;
     check_buffer_uris(&gltf.document, path, base)?;
     let buffers = gltf::import_buffers(&gltf.document, base, gltf.blob.clone())
-        .map_err(|e| MeshError::file(path, format!("cannot load a buffer: {e}")))?;
+        .map_err(|e| LoadError::file(path, format!("cannot load a buffer: {e}")))?;
     Importer {
         path,
         base,
@@ -93,7 +116,16 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
         meshes: HashMap::default(),
         mesh_triangles: HashMap::default(),
         mesh_uses: HashMap::default(),
-        warnings: Vec::new(),
+        warnings: ignored
+            .map(|names| {
+                format!(
+                    "{}: warning: the file uses glTF extensions arbor ignores ({names}); the picture may differ from the author's",
+                    path.display()
+                )
+            })
+            .into_iter()
+            .collect(),
+        emissive_strengths,
         stats: ModelStats {
             nodes: gltf.document.nodes().len() as u64,
             meshes: gltf.document.meshes().len() as u64,
@@ -105,6 +137,122 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Me
     .run()
 }
 
+/// The extensions arbor reads when a file requires them (none of the
+/// required-extension kind today: each one listed here changes geometry or
+/// materials in a way the importer implements).
+const SUPPORTED_REQUIRED: &[&str] = &[];
+
+/// Checks what the JSON says before the crate parses it, for one clear line
+/// where the crate would give a misleading one: glTF 1.0 (a different
+/// schema), required extensions arbor lacks (named once each), and returns
+/// the JSON with what the specification makes optional filled in (a scene
+/// without `nodes`, a default `scene` naming no scene). `json` is the JSON
+/// text, or a GLB's JSON chunk.
+fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> {
+    let Ok(mut root) = gltf::json::deserialize::from_slice::<gltf::json::Value>(json) else {
+        // Not JSON at all: the crate's own message says where.
+        return Ok(None);
+    };
+    let version = root
+        .pointer("/asset/version")
+        .and_then(|v| v.as_str())
+        .unwrap_or("");
+    if version.starts_with('1') {
+        return Err(LoadError::file(
+            path,
+            format!("a glTF {version} file; arbor reads glTF 2.0"),
+        ));
+    }
+    let mut missing: Vec<String> = Vec::new();
+    if let Some(required) = root.get("extensionsRequired").and_then(|v| v.as_array()) {
+        for name in required.iter().filter_map(|v| v.as_str()) {
+            if !SUPPORTED_REQUIRED.contains(&name) && !missing.iter().any(|m| m == name) {
+                missing.push(name.to_string());
+            }
+        }
+    }
+    if !missing.is_empty() {
+        return Err(LoadError::file(
+            path,
+            format!(
+                "the file requires the glTF extension{} {}, which arbor does not read",
+                if missing.len() > 1 { "s" } else { "" },
+                missing.join(", ")
+            ),
+        ));
+    }
+    let mut changed = false;
+    let scenes = root
+        .get("scenes")
+        .and_then(|s| s.as_array())
+        .map_or(0, |s| s.len());
+    if let Some(obj) = root.as_object_mut() {
+        // A default scene that names no scene: no default scene.
+        if obj
+            .get("scene")
+            .and_then(|s| s.as_u64())
+            .is_some_and(|s| s as usize >= scenes)
+        {
+            obj.remove("scene");
+            changed = true;
+        }
+        // `nodes` of a scene is optional: an empty scene.
+        if let Some(list) = obj.get_mut("scenes").and_then(|s| s.as_array_mut()) {
+            for scene in list.iter_mut().filter_map(|s| s.as_object_mut()) {
+                if !scene.contains_key("nodes") {
+                    scene.insert("nodes".into(), gltf::json::Value::Array(Vec::new()));
+                    changed = true;
+                }
+            }
+        }
+    }
+    Ok(changed.then(|| gltf::json::serialize::to_vec(&root).unwrap_or_default()))
+}
+
+/// The extensions the file uses (`extensionsUsed`) that arbor does not
+/// implement, listed for a warning, or `None` when there are none.
+fn ignored_extensions(json: &[u8]) -> Option<String> {
+    const READ: &[&str] = &["KHR_materials_emissive_strength"];
+    let root = gltf::json::deserialize::from_slice::<gltf::json::Value>(json).ok()?;
+    let used = root.get("extensionsUsed")?.as_array()?;
+    let ignored: Vec<&str> = used
+        .iter()
+        .filter_map(|v| v.as_str())
+        .filter(|n| !READ.contains(n))
+        .collect();
+    (!ignored.is_empty()).then(|| ignored.join(", "))
+}
+
+/// Each material's `KHR_materials_emissive_strength` (1 where it has none),
+/// read from the JSON: the crate is built without that extension.
+fn emissive_strengths(json: &[u8]) -> Vec<f64> {
+    let Ok(root) = gltf::json::deserialize::from_slice::<gltf::json::Value>(json) else {
+        return Vec::new();
+    };
+    let Some(materials) = root.get("materials").and_then(|m| m.as_array()) else {
+        return Vec::new();
+    };
+    materials
+        .iter()
+        .map(|m| {
+            m.pointer("/extensions/KHR_materials_emissive_strength/emissiveStrength")
+                .and_then(|s| s.as_f64())
+                .filter(|s| s.is_finite() && *s >= 0.0)
+                .unwrap_or(1.0)
+        })
+        .collect()
+}
+
+/// The JSON chunk of a GLB file (the first chunk, by the format), when the
+/// header and the chunk's length are consistent.
+fn glb_json_chunk(bytes: &[u8]) -> Option<&[u8]> {
+    let len = u32::from_le_bytes(bytes.get(12..16)?.try_into().ok()?) as usize;
+    if bytes.get(16..20)? != b"JSON" {
+        return None;
+    }
+    bytes.get(20..20usize.checked_add(len)?)
+}
+
 /// Checks what the crate's buffer import would trip on: a relative URI
 /// that does not percent-decode to UTF-8 (it panics), and an external
 /// buffer that is not a regular file (`/dev/zero` would be read forever).
@@ -112,12 +260,12 @@ fn check_buffer_uris(
     doc: &gltf::Document,
     path: &Path,
     base: Option<&Path>,
-) -> Result<(), MeshError> {
+) -> Result<(), LoadError> {
     for buffer in doc.buffers() {
         let gltf::buffer::Source::Uri(uri) = buffer.source() else {
             continue;
         };
-        let fail = |why: &str| MeshError::file(path, format!("buffer {}: {why}", buffer.index()));
+        let fail = |why: &str| LoadError::file(path, format!("buffer {}: {why}", buffer.index()));
         // data: URIs, schemes the crate refuses, and relative URIs without a
         // base folder (the crate refuses external buffers then) are left to
         // the crate.
@@ -205,17 +353,19 @@ struct Importer<'a> {
     /// How many nodes place each mesh.
     mesh_uses: HashMap<usize, u64>,
     warnings: Vec<String>,
+    /// Each material's emissive strength (`KHR_materials_emissive_strength`).
+    emissive_strengths: Vec<f64>,
     stats: ModelStats,
     camera: Option<Camera>,
     aspect: Option<f64>,
 }
 
 impl Importer<'_> {
-    fn err(&self, m: impl Into<String>) -> MeshError {
-        MeshError::file(self.path, m)
+    fn err(&self, m: impl Into<String>) -> LoadError {
+        LoadError::file(self.path, m)
     }
 
-    fn run(mut self) -> Result<Model, MeshError> {
+    fn run(mut self) -> Result<Model, LoadError> {
         let roots: Vec<usize> = match self
             .doc
             .default_scene()
@@ -251,7 +401,19 @@ impl Importer<'_> {
             }
         }
         if self.stats.instanced_triangles == 0 {
-            return Err(self.err("the file has no triangles to render"));
+            // The warnings say why (points, lines, textures...): keep them
+            // in the one line the user sees.
+            let prefix = format!("{}: warning: ", self.path.display());
+            let why: Vec<&str> = self
+                .warnings
+                .iter()
+                .map(|w| w.strip_prefix(&prefix).unwrap_or(w))
+                .collect();
+            let mut message = "the file has no triangles to render".to_string();
+            if !why.is_empty() {
+                message = format!("{message} ({})", why.join("; "));
+            }
+            return Err(self.err(message));
         }
         Ok(Model {
             surfaces,
@@ -265,7 +427,7 @@ impl Importer<'_> {
 
     /// Fails on a node reachable from itself (the format forbids it; a
     /// cycle would make the hierarchy infinite).
-    fn check_cycles(&self, roots: &[usize]) -> Result<(), MeshError> {
+    fn check_cycles(&self, roots: &[usize]) -> Result<(), LoadError> {
         // 0 unvisited, 1 on the current path, 2 done.
         let mut state = vec![0u8; self.doc.nodes().len()];
         let nodes: Vec<gltf::Node> = self.doc.nodes().collect();
@@ -316,7 +478,7 @@ impl Importer<'_> {
 
     /// The group for node `n` (`None` when nothing under it has geometry);
     /// `world` is the parents' matrix (for the camera).
-    fn node(&mut self, n: usize, world: DMat4) -> Result<Option<Surface>, MeshError> {
+    fn node(&mut self, n: usize, world: DMat4) -> Result<Option<Surface>, LoadError> {
         let Some(node) = self.doc.nodes().nth(n) else {
             return Ok(None);
         };
@@ -391,16 +553,19 @@ impl Importer<'_> {
     }
 
     /// The shared surface for a mesh (built on first use).
-    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Option<Arc<Surface>>, MeshError> {
+    fn mesh(&mut self, mesh: &gltf::Mesh) -> Result<Option<Arc<Surface>>, LoadError> {
         if let Some(s) = self.meshes.get(&mesh.index()) {
             return Ok(Some(s.clone()));
         }
         let mut parts = Vec::new();
         let mut triangles = 0u64;
         for prim in mesh.primitives() {
-            if prim.mode() != Mode::Triangles {
+            if !matches!(
+                prim.mode(),
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
                 self.warnings.push(format!(
-                    "{}: warning: mesh {} has a {:?} primitive; only triangles are rendered",
+                    "{}: warning: mesh {} has a {:?} primitive; points and lines are skipped, only surfaces are rendered",
                     self.path.display(),
                     mesh.index(),
                     prim.mode()
@@ -417,7 +582,8 @@ impl Importer<'_> {
                 shader: {
                     let material = prim.material();
                     let texture = self.base_color_texture(&material);
-                    shader_for(&material, texture)
+                    let surface = shader_for(&material, texture);
+                    self.emissive(&material, surface)
                 },
                 two_sided: true,
             }));
@@ -448,7 +614,7 @@ impl Importer<'_> {
         mesh: usize,
         accessor: &gltf::Accessor,
         usage: Usage,
-    ) -> Result<(), MeshError> {
+    ) -> Result<(), LoadError> {
         use gltf::accessor::{DataType, Dimensions};
         let fail =
             |why: &str| self.err(format!("mesh {mesh}: accessor {} {why}", accessor.index()));
@@ -515,10 +681,49 @@ impl Importer<'_> {
     /// model still loads.
     fn base_color_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
         let info = m.pbr_metallic_roughness().base_color_texture()?;
+        self.texture(m, &info, "base colour", "the base colour is used")
+    }
+
+    /// `surface` with the emission of material `m` added when it has one:
+    /// `emissiveFactor` times `emissiveTexture`, scaled by
+    /// `KHR_materials_emissive_strength`.
+    fn emissive(&mut self, m: &gltf::Material, surface: Arc<Shader>) -> Arc<Shader> {
+        let strength = m
+            .index()
+            .and_then(|i| self.emissive_strengths.get(i).copied())
+            .unwrap_or(1.0);
+        let emission = DVec3::from_array(m.emissive_factor().map(f64::from)) * strength;
+        if !(emission.is_finite() && emission.max_element() > 0.0) {
+            return surface;
+        }
+        let texture = self.emissive_texture(m);
+        Arc::new(Shader::Emissive {
+            emission,
+            texture,
+            surface,
+        })
+    }
+
+    /// The emissive texture of material `m`, as [`Self::base_color_texture`]
+    /// reads the base colour's (sRGB as well, by the specification).
+    fn emissive_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
+        let info = m.emissive_texture()?;
+        self.texture(m, &info, "emissive", "its emissive factor alone is used")
+    }
+
+    /// The texture `info` names for the `what` of material `m`; `fallback`
+    /// says in a warning what is used when it cannot be read.
+    fn texture(
+        &mut self,
+        m: &gltf::Material,
+        info: &gltf::texture::Info,
+        what: &str,
+        fallback: &str,
+    ) -> Option<Arc<Texture>> {
         let material = m.index().map_or("default".to_string(), |i| i.to_string());
         if info.tex_coord() != 0 {
             self.warnings.push(format!(
-                "{}: warning: material {material}: its base colour texture uses TEXCOORD_{}, only TEXCOORD_0 is read; the base colour is used",
+                "{}: warning: material {material}: its {what} texture uses TEXCOORD_{}, only TEXCOORD_0 is read; {fallback}",
                 self.path.display(),
                 info.tex_coord()
             ));
@@ -530,12 +735,12 @@ impl Importer<'_> {
         }
         let texture = match self
             .image_bytes(&image)
-            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat))
+            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat, TexelEncoding::Srgb))
         {
             Ok(t) => Some(Arc::new(t)),
             Err(e) => {
                 self.warnings.push(format!(
-                    "{}: warning: material {material}: image {}: {e}; the base colour is used",
+                    "{}: warning: material {material}: image {}: {e}; {fallback}",
                     self.path.display(),
                     image.index()
                 ));
@@ -598,7 +803,7 @@ impl Importer<'_> {
         }
     }
 
-    fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, MeshError> {
+    fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, LoadError> {
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             return Err(self.err(format!("mesh {mesh}: a primitive has no POSITION")));
         };
@@ -658,13 +863,11 @@ impl Importer<'_> {
             )));
         }
         let mut data = MeshData {
-            triangles: indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
+            triangles: assemble(prim.mode(), &indices),
             positions,
             normals,
             uvs,
+            colors: None,
         };
         super::check_finite(self.path, &data.positions)?;
         super::sanitize_normals(&mut data);
@@ -672,16 +875,49 @@ impl Importer<'_> {
     }
 }
 
+/// The triangles of a primitive's index list in its mode (glTF 2.0,
+/// "Meshes"): lists in threes; strips with every other triangle's winding
+/// turned, so all face one way; fans around the first vertex. In strips and
+/// fans a triangle that repeats a vertex (a restart) is dropped.
+fn assemble(mode: Mode, ix: &[u32]) -> Vec<[u32; 3]> {
+    let distinct = |t: &[u32; 3]| t[0] != t[1] && t[1] != t[2] && t[0] != t[2];
+    match mode {
+        Mode::TriangleStrip => (0..ix.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [ix[i], ix[i + 1], ix[i + 2]]
+                } else {
+                    [ix[i], ix[i + 2], ix[i + 1]]
+                }
+            })
+            .filter(distinct)
+            .collect(),
+        Mode::TriangleFan => (1..ix.len().saturating_sub(1))
+            .map(|i| [ix[i], ix[i + 1], ix[0]])
+            .filter(distinct)
+            .collect(),
+        _ => ix.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+    }
+}
+
 /// The shader for a glTF material: the base colour is the diffuse colour;
 /// a smooth (low roughness) surface gets a Phong highlight whose exponent
 /// grows as the roughness falls, metals tinted by their colour. A base
-/// colour texture, when one was read, replaces the diffuse colour.
+/// colour texture, when one was read, times the base colour factor (both
+/// linear, as the specification defines them) is the diffuse colour.
 pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shader> {
     let pbr = m.pbr_metallic_roughness();
     let c = pbr.base_color_factor();
     let base = DVec4::from_array(c.map(f64::from))
         .truncate()
         .clamp(DVec3::ZERO, DVec3::ONE);
+    let texture = texture.map(|t| {
+        if base == DVec3::ONE {
+            t
+        } else {
+            Arc::new(t.tinted(base))
+        }
+    });
     let rough = (pbr.roughness_factor() as f64).clamp(0.0, 1.0);
     let metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
     if rough >= 0.9 {
@@ -700,4 +936,81 @@ pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shad
         exponent,
         texture,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_become_triangles_facing_one_way() {
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 2, 3, 4]),
+            [[0, 1, 2], [1, 3, 2], [2, 3, 4]]
+        );
+        assert_eq!(
+            assemble(Mode::TriangleFan, &[0, 1, 2, 3]),
+            [[1, 2, 0], [2, 3, 0]]
+        );
+        // A restart (repeated vertex) yields no triangle.
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 1, 2]),
+            Vec::<[u32; 3]>::new()
+        );
+        assert_eq!(assemble(Mode::Triangles, &[0, 1, 2, 3]), [[0, 1, 2]]);
+    }
+
+    #[test]
+    fn emissive_strength_is_read_per_material() {
+        let json = br#"{"materials":[{},{"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":5.5}}}]}"#;
+        assert_eq!(emissive_strengths(json), [1.0, 5.5]);
+        assert!(emissive_strengths(b"not json").is_empty());
+    }
+
+    #[test]
+    fn ignored_extensions_are_named() {
+        let json = br#"{"extensionsUsed":["KHR_texture_transform","KHR_materials_emissive_strength","KHR_lights_punctual"]}"#;
+        assert_eq!(
+            ignored_extensions(json).as_deref(),
+            Some("KHR_texture_transform, KHR_lights_punctual")
+        );
+        assert_eq!(ignored_extensions(br#"{"extensionsUsed":[]}"#), None);
+        assert_eq!(ignored_extensions(b"{}"), None);
+    }
+
+    #[test]
+    fn json_checks_before_the_crate() {
+        let p = Path::new("m.gltf");
+        let e = prepare_json(br#"{"asset":{"version":"1.0"}}"#, p).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.gltf: a glTF 1.0 file; arbor reads glTF 2.0"
+        );
+        let e = prepare_json(
+            br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression","KHR_draco_mesh_compression"]}"#,
+            p,
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "m.gltf: the file requires the glTF extension KHR_draco_mesh_compression, which arbor does not read"
+        );
+        // Optional parts filled in: a scene's nodes, no default scene.
+        let fixed = prepare_json(br#"{"asset":{"version":"2.0"},"scene":0}"#, p)
+            .unwrap()
+            .unwrap();
+        let v: gltf::json::Value = gltf::json::deserialize::from_slice(&fixed).unwrap();
+        assert!(v.get("scene").is_none());
+        let fixed = prepare_json(br#"{"asset":{"version":"2.0"},"scenes":[{}]}"#, p)
+            .unwrap()
+            .unwrap();
+        let v: gltf::json::Value = gltf::json::deserialize::from_slice(&fixed).unwrap();
+        assert_eq!(
+            v.pointer("/scenes/0/nodes"),
+            Some(&gltf::json::Value::Array(vec![]))
+        );
+        assert!(prepare_json(br#"{"asset":{"version":"2.0"}}"#, p)
+            .unwrap()
+            .is_none());
+    }
 }

@@ -16,12 +16,13 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::short;
+use super::shorten;
 use super::triangulate::triangulate;
-use crate::mesh::{MeshData, MeshError};
+use crate::load::{LoadError, MeshData};
+use crate::texture::srgb_to_linear;
 
 /// Reads the PLY file at `path`.
-pub fn load(path: &Path) -> Result<MeshData, MeshError> {
+pub fn load(path: &Path) -> Result<MeshData, LoadError> {
     let bytes = super::read_bytes(path)?;
     parse(&bytes, path)
 }
@@ -117,9 +118,9 @@ struct Header {
     data_start: usize,
 }
 
-fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
+fn read_header(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
     if bytes.is_empty() {
-        return Err(MeshError::file(path, "the file is empty"));
+        return Err(LoadError::file(path, "the file is empty"));
     }
     let mut pos = 0;
     let mut line_no = 0;
@@ -127,7 +128,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
     let mut elements: Vec<ElementHeader> = Vec::new();
     loop {
         let Some(len) = bytes[pos..].iter().position(|&b| b == b'\n') else {
-            return Err(MeshError::file(path, "the header has no 'end_header' line"));
+            return Err(LoadError::file(path, "the header has no 'end_header' line"));
         };
         let line = String::from_utf8_lossy(&bytes[pos..pos + len]);
         pos += len + 1;
@@ -136,7 +137,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
         let keyword = tokens.next().unwrap_or("");
         if line_no == 1 {
             if keyword != "ply" {
-                return Err(MeshError::at(
+                return Err(LoadError::at(
                     path,
                     1,
                     "not a PLY file (it must start with 'ply')",
@@ -144,7 +145,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
             }
             continue;
         }
-        let bad = |m: String| MeshError::at(path, line_no, m);
+        let bad = |m: String| LoadError::at(path, line_no, m);
         match keyword {
             "format" => {
                 format = Some(match tokens.next() {
@@ -154,7 +155,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
                     other => {
                         return Err(bad(format!(
                             "unknown PLY format '{}'",
-                            short(other.unwrap_or(""))
+                            shorten(other.unwrap_or(""))
                         )))
                     }
                 });
@@ -189,15 +190,16 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
                         _ => {
                             return Err(bad(format!(
                                 "unknown list types '{} {}'",
-                                short(count_ty),
-                                short(item_ty)
+                                shorten(count_ty),
+                                shorten(item_ty)
                             )))
                         }
                     }
                 } else {
                     Prop {
-                        ty: Ty::parse(ty)
-                            .ok_or_else(|| bad(format!("unknown property type '{}'", short(ty))))?,
+                        ty: Ty::parse(ty).ok_or_else(|| {
+                            bad(format!("unknown property type '{}'", shorten(ty)))
+                        })?,
                         name: tokens.next().unwrap_or("").to_string(),
                         list_count: None,
                     }
@@ -210,7 +212,7 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, MeshError> {
         }
     }
     let Some(format) = format else {
-        return Err(MeshError::file(path, "the header has no 'format' line"));
+        return Err(LoadError::file(path, "the header has no 'format' line"));
     };
     Ok(Header {
         format,
@@ -235,17 +237,17 @@ impl Data<'_> {
         self.bytes.len() - self.pos
     }
 
-    fn error(&self, message: impl Into<String>) -> MeshError {
+    fn error(&self, message: impl Into<String>) -> LoadError {
         match self.format {
-            Format::Ascii => MeshError::at(self.path, self.line, message),
-            _ => MeshError::file(
+            Format::Ascii => LoadError::at(self.path, self.line, message),
+            _ => LoadError::file(
                 self.path,
                 format!("at byte {}: {}", self.pos, message.into()),
             ),
         }
     }
 
-    fn value(&mut self, ty: Ty) -> Result<f64, MeshError> {
+    fn value(&mut self, ty: Ty) -> Result<f64, LoadError> {
         if self.format == Format::Ascii {
             return self.ascii_value(ty);
         }
@@ -287,7 +289,7 @@ impl Data<'_> {
         }
     }
 
-    fn ascii_value(&mut self, ty: Ty) -> Result<f64, MeshError> {
+    fn ascii_value(&mut self, ty: Ty) -> Result<f64, LoadError> {
         self.skip_space();
         let start = self.pos;
         while self
@@ -313,14 +315,14 @@ impl Data<'_> {
                 } else {
                     "an integer"
                 },
-                short(&token)
+                shorten(&token)
             ))
         })
     }
 }
 
 /// Parses PLY bytes; `path` is only used in error messages.
-pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
+pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     let header = read_header(bytes, path)?;
     let ascii = header.format == Format::Ascii;
     // Every count against the data that is there, before anything is read.
@@ -329,7 +331,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     for e in &header.elements {
         needed = needed.saturating_add(e.count.saturating_mul(e.min_record(ascii).max(1)));
         if needed > available {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 format!(
@@ -346,7 +348,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
             .any(|e| e.name == name && e.count > 0)
     };
     if !has("vertex") || !has("face") {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no vertices or no faces (a point cloud?); nothing to render",
         ));
@@ -360,6 +362,7 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     };
     let mut mesh = MeshData::default();
     let mut normals: Vec<Vec3> = Vec::new();
+    let mut colors: Vec<Vec3> = Vec::new();
     let mut faces: Vec<(usize, Vec<u32>)> = Vec::new();
     let mut values: Vec<f64> = Vec::new();
     let mut list: Vec<f64> = Vec::new();
@@ -371,20 +374,28 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
         };
         let xyz = [find("x"), find("y"), find("z")];
         let nxyz = [find("nx"), find("ny"), find("nz")];
+        let rgb = [find("red"), find("green"), find("blue")];
+        // Integer colours run to their type's maximum, float ones to 1.
+        let colour_scale = rgb[0].map_or(1.0, |i| match e.props[i].ty {
+            Ty::U8 | Ty::I8 => 255.0,
+            Ty::U16 | Ty::I16 => 65535.0,
+            Ty::U32 | Ty::I32 => u32::MAX as f64,
+            Ty::F32 | Ty::F64 => 1.0,
+        });
         let is_vertex = e.name == "vertex";
         let is_face = e.name == "face";
         let corners_prop = e.props.iter().position(|p| {
             p.list_count.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
         });
         if is_vertex && xyz.iter().any(Option::is_none) {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 "the vertex element has no x, y and z",
             ));
         }
         if is_face && corners_prop.is_none() {
-            return Err(MeshError::at(
+            return Err(LoadError::at(
                 path,
                 e.line,
                 "the face element has no 'vertex_indices' list",
@@ -425,6 +436,10 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
                 if nxyz.iter().all(Option::is_some) {
                     normals.push(Vec3::new(get(nxyz[0]), get(nxyz[1]), get(nxyz[2])));
                 }
+                if let [Some(r), Some(g), Some(b)] = rgb {
+                    let c = |i: usize| srgb_to_linear(values[i] / colour_scale) as f32;
+                    colors.push(Vec3::new(c(r), c(g), c(b)));
+                }
             } else if is_face {
                 let corners = corners
                     .iter()
@@ -443,6 +458,9 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
     if normals.len() == mesh.positions.len() {
         mesh.normals = Some(normals);
     }
+    if !colors.is_empty() && colors.len() == mesh.positions.len() {
+        mesh.colors = Some(colors);
+    }
     // Faces may come before vertices in the file: check them at the end.
     let n = mesh.positions.len() as u64;
     for (k, (line, corners)) in faces.iter().enumerate() {
@@ -451,15 +469,15 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, MeshError> {
                 "vertex index {bad} is out of range (the file has {n} vertices, numbered from 0)"
             );
             return Err(if ascii {
-                MeshError::at(path, *line, message)
+                LoadError::at(path, *line, message)
             } else {
-                MeshError::file(path, format!("face {}: {message}", k + 1))
+                LoadError::file(path, format!("face {}: {message}", k + 1))
             });
         }
         triangulate(&mesh.positions, corners, &mut mesh.triangles);
     }
     if mesh.triangles.is_empty() {
-        return Err(MeshError::file(
+        return Err(LoadError::file(
             path,
             "the file has no faces with 3 or more corners",
         ));

@@ -1,0 +1,34 @@
+//! Triangle meshes as loaded from files, before they enter a scene.
+
+use glam::{Vec2, Vec3};
+
+/// An indexed triangle mesh as read from a file: positions and optional
+/// per-vertex normals and texture coordinates, all `f32` as the files store
+/// them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshData {
+    /// Vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals, one per position, when the file has them.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates, one per position, when the file has them.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Per-vertex colours, linear (decoded from the file's sRGB), one per
+    /// position, when the file has them (OBJ's `v x y z r g b`, PLY's
+    /// `red`/`green`/`blue`). They replace the material's diffuse colour
+    /// where no texture applies.
+    pub colors: Option<Vec<Vec3>>,
+    /// Triangles as indices into `positions` (every index is in range).
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// One mesh file as loaded, and what the reader dropped.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadedMesh {
+    /// The triangles.
+    pub mesh: MeshData,
+    /// OBJ `f` lines with more than 3 corners that
+    /// [`super::ObjRule::Cornell2015`] skipped, so that the caller can warn
+    /// (always 0 for other rules and formats).
+    pub skipped_polygons: usize,
+}
