@@ -11,6 +11,8 @@ mod compare;
 mod farm;
 mod info;
 mod merge;
+mod output;
+mod overrides;
 mod render;
 mod trace;
 

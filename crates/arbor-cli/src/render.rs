@@ -5,10 +5,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Context;
 use arbor::film::ImageFormat;
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
 use arbor::render::Region;
+use arbor::scene::Scene;
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
 use clap::Args;
@@ -64,158 +64,44 @@ pub struct RenderArgs {
     /// `.part` file for `arbor merge`.
     #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region)]
     pub region: Option<Region>,
+    /// Render only the pixels x0..x1 by y0..y1 (row 0 at the top, ends
+    /// excluded) as a picture of that size (or a `.part` file, as --region).
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region, conflicts_with_all = ["tile", "region"])]
+    pub crop: Option<Region>,
+    /// Scene overrides.
+    #[command(flatten)]
+    pub overrides: crate::overrides::Overrides,
 }
 
 /// Runs `arbor render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let pool = crate::thread_pool(args.threads)?;
-    pool.install(|| render_in_pool(&args))
+    crate::thread_pool(args.threads)?.install(|| render(&args))
 }
 
-fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
+/// The steps of a render, each named; every check comes before the work.
+fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
-    let (scene, output) = match &args.scene {
-        Some(path) => {
-            let loaded = load_scene_or_model(path)?;
-            if !args.quiet {
-                for w in &loaded.warnings {
-                    eprintln!("{w}");
-                }
-            }
-            let stem = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "out".into());
-            (loaded.scene, PathBuf::from(format!("{stem}.png")))
-        }
-        None => (
-            arbor::default_scene::classroom(),
-            PathBuf::from("arbor.png"),
-        ),
-    };
-    // Partial renders: --tile, --region or a `.part` output (farm::part).
-    let part_spec = crate::farm::part::spec(args.tile, args.region);
-    let target = crate::farm::part::target(part_spec, args.output.as_deref(), &output, &scene)?;
-    let (output, part) = (target.output, target.part);
-    // Check the format before spending time on the render.
-    if part.is_none() {
-        ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
-    }
-    let region = part.map_or(
-        Region {
-            x0: 0,
-            y0: 0,
-            x1: scene.width,
-            y1: scene.height,
-        },
-        |p| p.0,
-    );
-    if let Some(path) = &args.heatmap {
-        check_heatmap_path(path)?;
-    }
+    let job = prepare(args)?;
     let loaded = start.elapsed();
-
-    let flat = match args.bvol {
-        Some(_) => Flattened::bounded(&scene, args.max_instances),
-        None => Flattened::new(&scene, args.max_instances),
-    }
-    .map_err(|e| InputError(e.to_string()))?;
-    let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
-    let build_start = Instant::now();
-    let tracer = match args.bvol {
-        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
-        None => Tracer::from_flattened(flat, args.accel),
-    };
-    let built = build_start.elapsed();
-
-    let cancel = Arc::new(AtomicBool::new(false));
-    install_interrupt_handler(cancel.clone());
-    let total = region.area();
-    let bar = progress_bar(total, args.quiet);
-    let render_start = Instant::now();
-    let film = render_counted(
-        &scene,
-        &tracer,
-        region,
-        &|n| bar.inc(n),
-        &cancel,
-        args.stats,
-    );
-    bar.finish_and_clear();
-    let (film, ray_stats) = match film {
-        Ok(f) => f,
-        Err(cancelled) => {
-            if args.partial && part.is_none() {
-                cancelled.partial.write(&output, scene.variant)?;
-                anyhow::bail!(
-                    "interrupted: wrote the finished tiles to {} (--partial)",
-                    output.display()
-                );
-            }
-            anyhow::bail!("interrupted: no image written")
-        }
-    };
-    let rendered = render_start.elapsed();
-    match part {
-        // A part records where it belongs and what it was rendered from.
-        Some((region, tile)) => arbor::partial::Partial {
-            header: arbor::partial::PartHeader {
-                width: scene.width,
-                height: scene.height,
-                region,
-                tile,
-                variant: scene.variant,
-                scene_hash: arbor::partial::scene_hash(&scene),
-            },
-            film,
-        }
-        .write(&output),
-        None => film.write(&output, scene.variant),
-    }
-    .with_context(|| "writing the image")?;
+    let built = build(args, &job.scene)?;
+    let (film, ray_stats, rendered) = trace_image(args, &job, &built.tracer)?;
+    let heatmap = write_outputs(args, &job, &built.tracer, film)?;
     if !args.quiet {
+        let (w, h) = (job.region.x1 - job.region.x0, job.region.y1 - job.region.y0);
+        let spp = job.scene.samples_per_side * job.scene.samples_per_side;
         eprintln!(
-            "wrote {} ({}x{}, {} samples per pixel) in {:.2} s",
-            output.display(),
-            scene.width,
-            scene.height,
-            scene.samples_per_side * scene.samples_per_side,
+            "wrote {} ({w}x{h}, {}) in {:.2} s",
+            job.output.display(),
+            plural(spp.into(), "sample per pixel", "samples per pixel"),
             start.elapsed().as_secs_f64()
         );
     }
-    let heatmap = match &args.heatmap {
-        Some(path) => Some(write_heatmap(&scene, &tracer, path)?),
-        None => None,
-    };
     if args.stats {
-        let s = arbor_accel::Accelerator::stats(tracer.accel());
-        eprintln!(
-            "primitives: {unique} unique, {} placements of shared geometry, {instanced} as placed",
-            tracer.placements()
-        );
-        eprintln!(
-            "accel {}: top level {} nodes, {} leaves, depth {}; all levels {} bytes",
-            tracer.kind(),
-            s.nodes,
-            s.leaves,
-            s.max_depth,
-            tracer.accel_memory_bytes()
-        );
-        if let Some(volume) = args.bvol {
-            let v = tracer.volume_stats();
-            let load =
-                |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
-            eprintln!(
-                "bounding volumes ({volume:?}): {} tests, {} missed, {} surface tests saved",
-                load(&v.tests),
-                load(&v.misses),
-                load(&v.saved)
-            );
-        }
+        print_build_stats(args, &built);
         eprintln!(
             "time: load {:.3} s, build {:.3} s, render {:.3} s",
             loaded.as_secs_f64(),
-            built.as_secs_f64(),
+            built.took.as_secs_f64(),
             rendered.as_secs_f64()
         );
     }
@@ -223,6 +109,210 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
         print_ray_stats(stats, heatmap.as_ref());
     }
     Ok(())
+}
+
+/// A render ready to run: the scene as overridden, and where it goes.
+struct Job {
+    scene: Scene,
+    output: PathBuf,
+    /// The pixels computed (the whole image unless a tile, region or crop).
+    region: Region,
+    /// For a `.part` output: the tile it is, if one.
+    part: Option<Option<(u32, u32)>>,
+}
+
+/// Checks every output (before loading anything), loads the scene and
+/// applies the overrides, and decides which pixels to compute.
+fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
+    let default_picture = match &args.scene {
+        Some(path) => {
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "out".into());
+            PathBuf::from(format!("{stem}.png"))
+        }
+        None => PathBuf::from("arbor.png"),
+    };
+    // Partial renders: --tile, --region or a `.part` output (farm::part);
+    // --crop is a region written as a picture.
+    let crop = args.crop.is_some();
+    let spec = crate::farm::part::spec(args.tile, args.region.or(args.crop));
+    let output =
+        crate::farm::part::output_path(spec, args.output.as_deref(), &default_picture, crop);
+    crate::output::check_writable(&output, "-o")?;
+    let is_part = crate::farm::part::check_kind(spec, &output, crop)?;
+    if !is_part {
+        ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
+    }
+    if let Some(path) = &args.heatmap {
+        check_heatmap_path(path)?;
+        crate::output::check_writable(path, "--heatmap")?;
+    }
+
+    let mut scene = match &args.scene {
+        Some(path) => {
+            let loaded = load_scene_or_model(path)?;
+            if !args.quiet {
+                for w in &loaded.warnings {
+                    eprintln!("{w}");
+                }
+            }
+            loaded.scene
+        }
+        None => arbor::default_scene::classroom(),
+    };
+    args.overrides.apply(&mut scene)?;
+    let (region, tile) = match spec {
+        Some(spec) => crate::farm::part::resolve(spec, &scene)?,
+        None => (crate::farm::part::whole(&scene), None),
+    };
+    Ok(Job {
+        scene,
+        output,
+        region,
+        part: is_part.then_some(tile),
+    })
+}
+
+/// The tracer and what building it took.
+struct Built {
+    tracer: Tracer,
+    unique: u64,
+    instanced: u64,
+    took: std::time::Duration,
+}
+
+/// Flattens the scene and builds the acceleration structure.
+fn build(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Built> {
+    let flat = match args.bvol {
+        Some(_) => Flattened::bounded(scene, args.max_instances),
+        None => Flattened::new(scene, args.max_instances),
+    }
+    .map_err(|e| InputError(e.to_string()))?;
+    let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
+    let start = Instant::now();
+    let tracer = match args.bvol {
+        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
+        None => Tracer::from_flattened(flat, args.accel),
+    };
+    Ok(Built {
+        tracer,
+        unique,
+        instanced,
+        took: start.elapsed(),
+    })
+}
+
+/// A finished film, its ray statistics (with `--stats`) and the render time.
+type Traced = (arbor::film::Film, Option<RenderStats>, std::time::Duration);
+
+/// Renders the job's pixels with a progress bar. On Ctrl-C: with
+/// `--partial`, writes the tiles done so far and fails; otherwise fails
+/// having written nothing.
+fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<Traced> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    install_interrupt_handler(cancel.clone());
+    let bar = progress_bar(job.region.area(), args.quiet);
+    let start = Instant::now();
+    let film = render_counted(
+        &job.scene,
+        tracer,
+        job.region,
+        &|n| bar.inc(n),
+        &cancel,
+        args.stats,
+    );
+    bar.finish_and_clear();
+    match film {
+        Ok((film, stats)) => Ok((film, stats, start.elapsed())),
+        Err(cancelled) if args.partial && job.part.is_none() => {
+            crate::output::stage_film(&job.output, &cancelled.partial, job.scene.variant)?
+                .commit()?;
+            anyhow::bail!(
+                "interrupted: wrote the finished tiles to {} (--partial)",
+                job.output.display()
+            )
+        }
+        Err(_) => anyhow::bail!("interrupted: no image written"),
+    }
+}
+
+/// Writes the picture (or part) and the heatmap: all of them or none.
+fn write_outputs(
+    args: &RenderArgs,
+    job: &Job,
+    tracer: &Tracer,
+    film: arbor::film::Film,
+) -> anyhow::Result<Option<(arbor::heatmap::CostMap, std::time::Duration)>> {
+    let scene = &job.scene;
+    let mut staged = vec![match job.part {
+        // A part records where it belongs and what it was rendered from.
+        Some(tile) => {
+            let part = arbor::partial::Partial {
+                header: arbor::partial::PartHeader {
+                    width: scene.width,
+                    height: scene.height,
+                    region: job.region,
+                    tile,
+                    variant: scene.variant,
+                    scene_hash: arbor::partial::scene_hash(scene),
+                },
+                film,
+            };
+            crate::output::stage(&job.output, |w| part.encode(w))?
+        }
+        None => crate::output::stage_film(&job.output, &film, scene.variant)?,
+    }];
+    let heatmap = match &args.heatmap {
+        Some(path) => {
+            let start = Instant::now();
+            let map = arbor::heatmap::primary_cost(scene, tracer);
+            let canvas = arbor::heatmap::heatmap_canvas(&map);
+            staged.push(crate::output::stage(path, |w| {
+                arbor::film::encode_png(w, canvas.width, canvas.height, &canvas.rgb)
+            })?);
+            Some((map, start.elapsed()))
+        }
+        None => None,
+    };
+    crate::output::commit_all(staged)?;
+    Ok(heatmap)
+}
+
+/// The `--stats` lines about the scene's primitives and structures.
+fn print_build_stats(args: &RenderArgs, built: &Built) {
+    let tracer = &built.tracer;
+    let s = arbor_accel::Accelerator::stats(tracer.accel());
+    eprintln!(
+        "primitives: {} unique, {} of shared geometry, {} as placed",
+        built.unique,
+        plural(tracer.placements() as u64, "placement", "placements"),
+        built.instanced
+    );
+    eprintln!(
+        "accel {}: top level {}, {}, depth {}; all levels {} bytes",
+        tracer.kind(),
+        plural(s.nodes as u64, "node", "nodes"),
+        plural(s.leaves as u64, "leaf", "leaves"),
+        s.max_depth,
+        tracer.accel_memory_bytes()
+    );
+    if let Some(volume) = args.bvol {
+        let v = tracer.volume_stats();
+        let load = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed);
+        eprintln!(
+            "bounding volumes ({volume:?}): {} tests, {} missed, {} surface tests saved",
+            load(&v.tests),
+            load(&v.misses),
+            load(&v.saved)
+        );
+    }
+}
+
+/// `1 sample`, `2 samples`: the count with the word that fits it.
+pub fn plural(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
 }
 
 // --- `--stats` (rays by kind) and `--heatmap` -------------------------------
@@ -249,11 +339,7 @@ fn render_counted(
 
 /// `--heatmap` writes an 8-bit PNG; anything else is refused before rendering.
 fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
-    let is_png = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if is_png {
+    if crate::output::has_png_extension(path) {
         Ok(())
     } else {
         Err(InputError(format!(
@@ -261,18 +347,6 @@ fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
             path.display()
         )))
     }
-}
-
-/// Writes the primary-ray cost heatmap; returns the map and how long it took.
-fn write_heatmap(
-    scene: &arbor::scene::Scene,
-    tracer: &Tracer,
-    path: &Path,
-) -> anyhow::Result<(arbor::heatmap::CostMap, std::time::Duration)> {
-    let start = Instant::now();
-    let map = arbor::heatmap::write_heatmap(scene, tracer, path)
-        .with_context(|| "writing the heatmap")?;
-    Ok((map, start.elapsed()))
 }
 
 /// The `--stats` lines about rays: count, nodes and tests per ray by kind.
@@ -341,6 +415,7 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
 fn install_interrupt_handler(cancel: Arc<AtomicBool>) {
     let _ = ctrlc::set_handler(move || {
         if cancel.swap(true, Ordering::SeqCst) {
+            crate::output::remove_pending();
             std::process::exit(130);
         }
     });

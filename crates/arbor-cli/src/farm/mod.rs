@@ -28,7 +28,7 @@ pub struct FarmArgs {
 enum FarmCommand {
     /// Submit a render (one or more scenes, as the frames of a sequence) as
     /// a Slurm array job of tiles plus a merge job that depends on it.
-    Slurm(slurm::SlurmArgs),
+    Slurm(Box<slurm::SlurmArgs>),
     /// Tiles done, queued or running, and missing, for a farm render.
     Status(status::StatusArgs),
 }
@@ -36,7 +36,7 @@ enum FarmCommand {
 /// Runs `arbor farm`.
 pub fn run(args: FarmArgs) -> anyhow::Result<()> {
     match args.command {
-        FarmCommand::Slurm(a) => slurm::run(a),
+        FarmCommand::Slurm(a) => slurm::run(*a),
         FarmCommand::Status(a) => status::run(a),
     }
 }
