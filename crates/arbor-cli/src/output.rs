@@ -170,27 +170,43 @@ pub fn has_png_extension(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("png"))
 }
 
-/// Checks, before any work, that the folder `path` can receive files:
-/// either it is a folder we may write in, or it can be created (its parent
-/// passes [`check_writable`]).
-pub fn check_folder_writable(path: &Path, what: &str) -> Result<(), InputError> {
-    if path.is_dir() {
-        return match NamedTempFile::new_in(path) {
-            Ok(_) => Ok(()),
-            Err(e) => Err(InputError(format!(
-                "{}: cannot write: {}",
-                path.display(),
-                e.kind()
-            ))),
-        };
-    }
-    if path.exists() {
+/// Checks, before any work, that `path` (a file, or with `folder` a
+/// folder) can be made where missing folders on the way are created: it is
+/// not of the other kind, and its nearest existing ancestor is a folder we
+/// may write in. For `arbor farm`, which creates its tree of folders.
+pub fn check_creatable(path: &Path, folder: bool, what: &str) -> Result<(), InputError> {
+    if folder && path.is_file() {
         return Err(InputError(format!(
             "{}: cannot write: it is a file; {what} names a folder here",
             path.display()
         )));
     }
-    check_writable(path, what)
+    if !folder && path.is_dir() {
+        return Err(InputError(format!(
+            "{}: cannot write: it is a folder; {what} names a file",
+            path.display()
+        )));
+    }
+    let mut ancestor = folder_of(path);
+    while !ancestor.exists() {
+        ancestor = folder_of(ancestor);
+    }
+    if !ancestor.is_dir() {
+        return Err(InputError(format!(
+            "{}: cannot write: {} is not a folder",
+            path.display(),
+            ancestor.display()
+        )));
+    }
+    match NamedTempFile::new_in(ancestor) {
+        Ok(_) => Ok(()),
+        Err(e) => Err(InputError(format!(
+            "{}: cannot write: {} in {}",
+            path.display(),
+            e.kind(),
+            ancestor.display()
+        ))),
+    }
 }
 
 /// Removes the temporary files still being written: for an interrupt

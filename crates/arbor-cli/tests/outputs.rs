@@ -163,10 +163,13 @@ fn other_commands_check_their_outputs_first() {
         "d.txt",
         "--diff writes a .png file",
     );
-    let abs = d.join("nosuchdir/f.png").display().to_string();
-    refused(
-        d,
-        &[
+    // The farm creates missing folders, but not under a file.
+    for (out, needle) in [
+        ("file/new/f.png", "file is not a folder"),
+        ("sub", "-o names the picture"),
+    ] {
+        let abs = d.join(out).display().to_string();
+        let args = [
             "farm",
             "slurm",
             "bad.xml",
@@ -174,11 +177,10 @@ fn other_commands_check_their_outputs_first() {
             "2",
             "--dry-run",
             "-o",
-            "nosuchdir/f.png",
-        ],
-        &abs,
-        "does not exist",
-    );
+            out,
+        ];
+        refused(d, &args, &abs, needle);
+    }
     let abs = d.join("file").display().to_string();
     refused(
         d,

@@ -131,13 +131,10 @@ fn check_args(args: &SlurmArgs) -> anyhow::Result<PathBuf> {
         ))
         .into());
     }
-    if sequence {
-        crate::output::check_folder_writable(&output, "-o")?;
-    } else {
-        crate::output::check_writable(&output, "-o")?;
-    }
-    // The parts folder goes beside the output.
-    crate::output::check_folder_writable(&parts_dir(&output), "the parts folder")?;
+    // The farm creates the folders it needs (the parts folder goes beside
+    // the output).
+    crate::output::check_creatable(&output, sequence, "-o")?;
+    crate::output::check_creatable(&parts_dir(&output), true, "the parts folder")?;
     Ok(output)
 }
 
