@@ -414,12 +414,12 @@ fn info_reports_hierarchy_and_instancing() {
     assert!(out.status.success(), "{}", stderr(&out));
     let text = String::from_utf8_lossy(&out.stdout);
     for line in [
-        "image       16x12, 1 samples per pixel",
+        "image       16x12, 1 sample per pixel",
         "primitives  2 unique",
         "placements  2 of shared geometry",
         "as placed   3 primitives",
         "instance of #1:",
-        "mesh 1 triangles, 3 vertices",
+        "mesh 1 triangle, 3 vertices",
         "instance of #1 (shown above)",
     ] {
         assert!(text.contains(line), "missing {line:?} in:\n{text}");
