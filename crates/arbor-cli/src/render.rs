@@ -213,15 +213,30 @@ type Traced = (arbor::film::Film, Option<RenderStats>, std::time::Duration);
 fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<Traced> {
     let cancel = Arc::new(AtomicBool::new(false));
     install_interrupt_handler(cancel.clone());
-    let bar = progress_bar(job.region.area(), args.quiet);
+    let total = job.region.area();
+    let bar = progress_bar(total, args.quiet);
+    let spp = u64::from(job.scene.samples_per_side * job.scene.samples_per_side);
+    let warned = AtomicBool::new(args.quiet);
     let start = Instant::now();
+    let progress = |n: u64| {
+        bar.inc(n);
+        let secs = start.elapsed().as_secs_f64();
+        let done = bar.position().max(1);
+        bar.set_message(format!(
+            "{:.2} M camera rays/s",
+            (done * spp) as f64 / secs.max(1e-9) / 1e6
+        ));
+        // Judged once, after a couple of seconds of real progress.
+        if secs > SLOW_JUDGED_AFTER_SECONDS && !warned.swap(true, Ordering::Relaxed) {
+            let estimate = secs * total as f64 / done as f64;
+            if estimate > SLOW_RENDER_SECONDS {
+                let why = slow_render_warning(args, &job.scene, tracer, estimate);
+                bar.suspend(|| eprintln!("{why}"));
+            }
+        }
+    };
     let film = render_counted(
-        &job.scene,
-        tracer,
-        job.region,
-        &|n| bar.inc(n),
-        &cancel,
-        args.stats,
+        &job.scene, tracer, job.region, &progress, &cancel, args.stats,
     );
     bar.finish_and_clear();
     match film {
@@ -397,6 +412,34 @@ pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::Loa
     arbor::xml::load_scene(path).map_err(|e| InputError(e.to_string()).into())
 }
 
+/// A render estimated to take longer than this says so, with the reason.
+const SLOW_RENDER_SECONDS: f64 = 300.0;
+/// When the estimate is made (earlier ones are mostly start-up).
+const SLOW_JUDGED_AFTER_SECONDS: f64 = 2.0;
+
+/// The early warning for a long render: the estimate, what the camera rays
+/// cost (nodes visited plus primitives tested, measured on a small copy of
+/// the view) and the faster choice.
+fn slow_render_warning(args: &RenderArgs, scene: &Scene, tracer: &Tracer, estimate: f64) -> String {
+    let mut probe = scene.clone();
+    crate::overrides::resize(
+        &mut probe,
+        40,
+        (40 * scene.height / scene.width.max(1)).max(1),
+    );
+    let cost = arbor::heatmap::primary_cost(&probe, tracer).mean();
+    let faster = if args.accel == AccelKind::DEFAULT {
+        "--quick, or a smaller --size or --spp, previews it faster".to_string()
+    } else {
+        format!("--accel {} is usually much faster", AccelKind::DEFAULT)
+    };
+    format!(
+        "warning: this render will take about {:.0} min: each camera ray costs {cost:.0} nodes and tests with --accel {}; {faster}",
+        (estimate / 60.0).ceil(),
+        args.accel
+    )
+}
+
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
@@ -404,7 +447,7 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     // indicatif hides a stderr bar by itself when stderr is not a terminal.
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} ETA {eta}")
+        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise}, {eta} left, {msg}")
             .expect("valid template"),
     );
     bar
