@@ -14,7 +14,7 @@ use arbor_accel::AccelKind;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use arbor::render::render_region_with;
+use arbor::render::render_region_observed;
 use arbor::stats::{NoStats, RayKind, RenderStats};
 
 use crate::InputError;
@@ -68,6 +68,11 @@ pub struct RenderArgs {
     /// excluded) as a picture of that size (or a `.part` file, as --region).
     #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region, conflicts_with_all = ["tile", "region"])]
     pub crop: Option<Region>,
+    /// While rendering, write the picture so far to the output every
+    /// SECONDS (atomically: a viewer can keep it open); removed again if the
+    /// render is interrupted without --partial.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    pub preview_every: Option<f64>,
     /// Scene overrides.
     #[command(flatten)]
     pub overrides: crate::overrides::Overrides,
@@ -142,6 +147,13 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
         crate::farm::part::output_path(spec, args.output.as_deref(), &default_picture, crop);
     crate::output::check_writable(&output, "-o")?;
     let is_part = crate::farm::part::check_kind(spec, &output, crop)?;
+    if is_part && args.preview_every.is_some() {
+        return Err(InputError(format!(
+            "{}: --preview-every writes pictures, not .part files",
+            output.display()
+        ))
+        .into());
+    }
     if !is_part {
         ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
     }
@@ -235,9 +247,24 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
             }
         }
     };
-    let film = render_counted(
-        &job.scene, tracer, job.region, &progress, &cancel, args.stats,
-    );
+    let preview = Preview::new(job, args.preview_every);
+    let film = std::thread::scope(|threads| {
+        if let Some(every) = args.preview_every {
+            let preview = &preview;
+            threads.spawn(move || preview.keep_writing(every, job));
+        }
+        let film = render_counted(
+            &job.scene,
+            tracer,
+            job.region,
+            &progress,
+            &|tile, pixels| preview.add(tile, pixels),
+            &cancel,
+            args.stats,
+        );
+        preview.stop();
+        film
+    });
     bar.finish_and_clear();
     match film {
         Ok((film, stats)) => Ok((film, stats, start.elapsed())),
@@ -249,7 +276,10 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
                 job.output.display()
             )
         }
-        Err(_) => anyhow::bail!("interrupted: no image written"),
+        Err(_) => {
+            preview.remove(job);
+            anyhow::bail!("interrupted: no image written")
+        }
     }
 }
 
@@ -338,18 +368,104 @@ pub fn plural(n: u64, one: &str, many: &str) -> String {
 fn render_counted(
     scene: &arbor::scene::Scene,
     tracer: &Tracer,
-    region: arbor::render::Region,
+    region: Region,
     progress: &(dyn Fn(u64) + Sync),
+    on_tile: &(dyn Fn(Region, &[glam::DVec3]) + Sync),
     cancel: &AtomicBool,
     count: bool,
 ) -> Result<(arbor::film::Film, Option<RenderStats>), arbor::render::Cancelled> {
     if count {
-        render_region_with::<RenderStats>(scene, tracer, region, progress, cancel)
+        render_region_observed::<RenderStats>(scene, tracer, region, progress, on_tile, cancel)
             .map(|(film, stats)| (film, Some(stats)))
     } else {
-        render_region_with::<NoStats>(scene, tracer, region, progress, cancel)
+        render_region_observed::<NoStats>(scene, tracer, region, progress, on_tile, cancel)
             .map(|(film, _)| (film, None))
     }
+}
+
+/// `--preview-every`: the tiles finished so far, written to the output now
+/// and then while the render runs.
+struct Preview {
+    /// The pixels of the job's region, `None` without `--preview-every`.
+    film: Option<std::sync::Mutex<arbor::film::Film>>,
+    /// The region's top-left pixel in the image.
+    origin: (u32, u32),
+    done: AtomicBool,
+    written: AtomicBool,
+}
+
+impl Preview {
+    fn new(job: &Job, every: Option<f64>) -> Preview {
+        let r = job.region;
+        Preview {
+            film: every
+                .map(|_| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
+            origin: (r.x0, r.y0),
+            done: AtomicBool::new(false),
+            written: AtomicBool::new(false),
+        }
+    }
+
+    fn lock(&self) -> Option<std::sync::MutexGuard<'_, arbor::film::Film>> {
+        self.film
+            .as_ref()
+            .map(|f| f.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Copies a finished tile (in image coordinates) into the preview of
+    /// `region`'s pixels.
+    fn add(&self, tile: Region, pixels: &[glam::DVec3]) {
+        let Some(mut film) = self.lock() else { return };
+        let mut k = 0;
+        for row in tile.y0..tile.y1 {
+            for col in tile.x0..tile.x1 {
+                film.set(col - self.origin.0, row - self.origin.1, pixels[k]);
+                k += 1;
+            }
+        }
+    }
+
+    /// Writes the preview every `every` seconds until [`Preview::stop`].
+    fn keep_writing(&self, every: f64, job: &Job) {
+        let mut last = Instant::now();
+        while !self.done.load(Ordering::Relaxed) {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            if last.elapsed().as_secs_f64() < every {
+                continue;
+            }
+            last = Instant::now();
+            let Some(film) = self.lock().map(|f| f.clone()) else {
+                return;
+            };
+            // The render goes on even if a preview cannot be written.
+            if crate::output::stage_film(&job.output, &film, job.scene.variant)
+                .and_then(|s| s.commit())
+                .is_ok()
+            {
+                self.written.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn stop(&self) {
+        self.done.store(true, Ordering::Relaxed);
+    }
+
+    /// After an interrupt without `--partial`: no picture is left.
+    fn remove(&self, job: &Job) {
+        if self.written.load(Ordering::Relaxed) {
+            let _ = std::fs::remove_file(&job.output);
+        }
+    }
+}
+
+/// Parses `--preview-every SECONDS` (for clap): a number above 0.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .ok_or_else(|| format!("`{text}`: expected a number of seconds above 0, e.g. 5"))
 }
 
 /// `--heatmap` writes an 8-bit PNG; anything else is refused before rendering.
