@@ -176,7 +176,11 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
     };
     args.overrides.apply(&mut scene)?;
     let (region, tile) = match spec {
-        Some(spec) => crate::farm::part::resolve(spec, &scene)?,
+        // `resolve` names --region; a crop is the same rectangle, named as given.
+        Some(spec) => crate::farm::part::resolve(spec, &scene).map_err(|e| match crop {
+            true => InputError(e.0.replacen("--region", "--crop", 1)),
+            false => e,
+        })?,
         None => (crate::farm::part::whole(&scene), None),
     };
     Ok(Job {

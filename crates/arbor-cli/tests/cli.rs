@@ -391,7 +391,10 @@ mod overrides {
             (vec!["--size", "640"], "WIDTHxHEIGHT"),
             (vec!["--size", "0x4"], "WIDTHxHEIGHT"),
             (vec!["--quick", "--spp", "4"], "cannot be used with"),
-            (vec!["--crop", "0,0,17,12"], "outside the 16x12 image"),
+            (
+                vec!["--crop", "0,0,17,12"],
+                "--crop 0,0,17,12: outside the 16x12 image",
+            ),
             (
                 vec!["--crop", "0,0,4,4", "--tile", "0/2"],
                 "cannot be used with",
