@@ -68,7 +68,7 @@ impl Grid {
         }
         let b = prep.bounds;
         let ext = b.extent();
-        let res = resolution(ext, prep.refs.len(), params);
+        let res = fitted_resolution(&b, &prep.refs, params);
         let planes: [Vec<f32>; 3] = std::array::from_fn(|a| {
             let r = res[a] as usize;
             let mut p: Vec<f32> = (0..r)
@@ -254,10 +254,86 @@ impl Grid {
     }
 }
 
-/// Cells per axis: about `lambda * n` in total, proportioned like the
-/// bounds. Flat axes (thinner than 1e-4 of the largest extent) get one cell.
-fn resolution(ext: Vec3, n: usize, params: &GridParams) -> [u32; 3] {
-    let target = (params.lambda.max(0.01) as f64 * n as f64).min(params.max_cells as f64);
+/// The largest crowding ([`crowding`]) the resolution rule accepts: a cell
+/// a ray enters should hold a handful of primitives, not hundreds.
+const MAX_CROWDING: f64 = 8.0;
+
+/// The most cells per primitive the resolution rule may spend to uncrowd
+/// the cells (a 4-byte cell start each, plus the references).
+const MAX_CELLS_PER_PRIMITIVE: f64 = 1024.0;
+
+/// Cells per axis for primitives `refs` (id, box) within `bounds`: the
+/// classic rule (about `lambda * n` cells shaped like the bounds, see
+/// [`shaped`]), then, while the primitives still crowd into few cells (a
+/// small model on a large floor: the "teapot in a stadium"), eight times
+/// as many cells, until the crowding is at most [`MAX_CROWDING`], stops
+/// improving, or the cells would exceed [`MAX_CELLS_PER_PRIMITIVE`] per
+/// primitive or `params.max_cells`. The grid stays uniform; only its size
+/// adapts to where the primitives are.
+fn fitted_resolution(bounds: &Aabb, refs: &[(u32, Aabb)], params: &GridParams) -> [u32; 3] {
+    let ext = bounds.extent();
+    let n = refs.len() as f64;
+    let lambda = params.lambda.max(0.01) as f64;
+    let budget = (n * lambda.max(MAX_CELLS_PER_PRIMITIVE)).min(params.max_cells.max(1) as f64);
+    let mut target = lambda * n;
+    let mut res = shaped(ext, target, params);
+    let mut crowd = crowding(bounds, res, refs);
+    while crowd > MAX_CROWDING && target * 8.0 <= budget {
+        target *= 8.0;
+        let finer = shaped(ext, target, params);
+        let finer_crowd = crowding(bounds, finer, refs);
+        if finer == res || finer_crowd >= crowd {
+            break;
+        }
+        res = finer;
+        crowd = finer_crowd;
+    }
+    res
+}
+
+/// How crowded the cells of resolution `res` are: the mean, over the
+/// primitives, of how many primitives share the cell holding their box's
+/// centre (the sum of squared cell counts over their sum). It estimates
+/// the primitives tested in a cell a ray enters near geometry; a few big
+/// primitives (a floor) weigh as little as they count.
+fn crowding(bounds: &Aabb, res: [u32; 3], refs: &[(u32, Aabb)]) -> f64 {
+    if refs.is_empty() {
+        return 0.0;
+    }
+    let ext = bounds.extent();
+    let mut cells: Vec<u64> = refs
+        .iter()
+        .map(|(_, b)| {
+            let c = b.center();
+            let mut index = 0u64;
+            for a in (0..3).rev() {
+                let r = res[a] as u64;
+                let x = if ext[a] > 0.0 {
+                    ((c[a] - bounds.min[a]) / ext[a] * r as f32).max(0.0) as u64
+                } else {
+                    0
+                };
+                index = index * r + x.min(r - 1);
+            }
+            index
+        })
+        .collect();
+    cells.sort_unstable();
+    let mut squares = 0u64;
+    let mut i = 0;
+    while i < cells.len() {
+        let j = i + cells[i..].iter().take_while(|&&c| c == cells[i]).count();
+        squares += ((j - i) * (j - i)) as u64;
+        i = j;
+    }
+    squares as f64 / refs.len() as f64
+}
+
+/// Cells per axis: about `cells` in total (at most `params.max_cells`),
+/// proportioned like the bounds so that cells are close to cubes. Flat axes
+/// (thinner than 1e-4 of the largest extent) get one cell.
+fn shaped(ext: Vec3, cells: f64, params: &GridParams) -> [u32; 3] {
+    let target = cells.min(params.max_cells as f64);
     let big = ext.max_element() as f64;
     let thick: Vec<usize> = (0..3)
         .filter(|&a| big > 0.0 && ext[a] as f64 > big * 1e-4)
@@ -407,6 +483,54 @@ mod tests {
         let r = Ray::new(Vec3::new(-20.0, 5.0, 5.0), Vec3::X, 0.0, 1.0);
         g.closest(&r, &mut c, |_, _| None);
         assert_eq!(c.nodes, 0);
+    }
+
+    /// A small cluster of primitives on a floor 50 times wider (the
+    /// teapot in a stadium): the classic rule puts the cluster in a cell or
+    /// two; the fitted one cuts finer, within the cell budget, until few
+    /// share a cell.
+    #[test]
+    fn a_small_model_on_a_large_floor_gets_fine_cells() {
+        let mut boxes: Vec<Aabb> = (0..1000)
+            .map(|i| {
+                let f = i as f32;
+                let c = Vec3::new(
+                    (f * 0.618).fract(),
+                    (f * 0.414).fract(),
+                    (f * 0.732).fract(),
+                );
+                Aabb::new(c, c + Vec3::splat(0.01))
+            })
+            .collect();
+        boxes.push(Aabb::new(
+            Vec3::new(-25.0, -0.1, -25.0),
+            Vec3::new(25.0, 0.0, 25.0),
+        ));
+        let refs: Vec<(u32, Aabb)> = boxes
+            .iter()
+            .copied()
+            .enumerate()
+            .map(|(i, b)| (i as u32, b))
+            .collect();
+        let bounds = refs.iter().fold(Aabb::EMPTY, |a, (_, b)| a.union(b));
+        let params = GridParams::default();
+        let classic = shaped(bounds.extent(), 4.0 * refs.len() as f64, &params);
+        assert!(crowding(&bounds, classic, &refs) > 100.0, "{classic:?}");
+        let fitted = fitted_resolution(&bounds, &refs, &params);
+        let crowd = crowding(&bounds, fitted, &refs);
+        assert!(crowd < 20.0, "{fitted:?}: crowding {crowd}");
+        let cells: usize = fitted.iter().map(|&r| r as usize).product();
+        assert!(cells as f64 <= MAX_CELLS_PER_PRIMITIVE * refs.len() as f64);
+        // A model alone keeps the classic size.
+        let soup = soup();
+        let prep = crate::util::prepare(&soup);
+        assert_eq!(
+            fitted_resolution(&prep.bounds, &prep.refs, &params),
+            shaped(prep.bounds.extent(), 4.0 * prep.refs.len() as f64, &params)
+        );
+        // The grid over the stadium still answers as brute force does.
+        let g = Grid::build(&boxes, &params);
+        assert_eq!(g.resolution(), fitted);
     }
 
     #[test]

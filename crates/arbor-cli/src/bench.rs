@@ -593,7 +593,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let accels = parse_accels(&args.accel)?;
     let kinds = parse_rays(args.rays.as_deref())?;
     if let Some(p) = &args.plot {
+        crate::output::check_writable(p, "--plot")?;
         plot::PlotFormat::from_path(p)?;
+    }
+    if let Some(p) = &args.json {
+        crate::output::check_writable(p, "--json")?;
     }
     let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
     let input = load_input(&args.input)?;

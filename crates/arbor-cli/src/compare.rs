@@ -3,10 +3,11 @@
 use std::path::{Path, PathBuf};
 
 use arbor::compare::{compare_rgb8, difference_image};
-use arbor::film::write_png;
-use clap::Args;
+use arbor::film::encode_png;
 
+use crate::output::has_png_extension;
 use crate::InputError;
+use clap::Args;
 
 /// Arguments of `arbor compare`.
 #[derive(Args, Debug)]
@@ -36,6 +37,14 @@ fn read_rgb8(path: &Path) -> anyhow::Result<image::RgbImage> {
 /// Runs `arbor compare`: prints PSNR, mean and max absolute error, and the
 /// fraction of channel values within 2/255.
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
+    if let Some(path) = &args.diff {
+        crate::output::check_writable(path, "--diff")?;
+        if !has_png_extension(path) {
+            return Err(
+                InputError(format!("{}: --diff writes a .png file", path.display())).into(),
+            );
+        }
+    }
     let a = read_rgb8(&args.a)?;
     let b = read_rgb8(&args.b)?;
     if a.dimensions() != b.dimensions() {
@@ -58,7 +67,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     );
     if let Some(path) = &args.diff {
         let d = difference_image(a.as_raw(), b.as_raw(), 16);
-        write_png(path, a.width(), a.height(), &d)?;
+        crate::output::write_atomic(path, |w| encode_png(w, a.width(), a.height(), &d))?;
     }
     if args.min_psnr.is_some_and(|m| c.psnr < m) || args.min_within2.is_some_and(|m| c.within_2 < m)
     {

@@ -13,13 +13,19 @@ mod compare;
 mod farm;
 mod info;
 mod merge;
+mod output;
+mod overrides;
 mod points;
 mod render;
 mod trace;
 
 /// arbor: a ray tracer built around transformations and acceleration structures.
 #[derive(Parser, Debug)]
-#[command(name = "arbor", version)]
+#[command(
+    name = "arbor",
+    version,
+    after_help = "Exit status: 0 on success, 2 for bad input or usage, 1 for other failures.\nEach command's --help has an example."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -28,13 +34,23 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Command {
     /// Render a scene to a PNG or EXR image (no scene: the built-in default scene).
+    #[command(
+        after_help = "Examples:\n  arbor render scene.xml -o scene.png\n  arbor render model.glb --quick              # a quarter size, one sample\n  arbor render scene.xml --size 1920x1080 --spp 16 -D exposure=2"
+    )]
     Render(render::RenderArgs),
     /// Describe a scene: settings, hierarchy, unique and instanced primitives.
+    #[command(after_help = "Example:\n  arbor info model.obj --json model.json")]
     Info(info::InfoArgs),
     /// Compare two images: PSNR, mean/max error, fraction within 2/255.
+    #[command(
+        after_help = "Example:\n  arbor compare out.png reference.png --diff diff.png --min-psnr 40"
+    )]
     Compare(compare::CompareArgs),
     /// Trace a batch of rays against a triangle mesh (the ray/hit file
     /// interface): closest hits, occlusion, every hit, hit counts.
+    #[command(
+        after_help = "Examples:\n  arbor trace --mesh bunny.obj --rays rays.bin --hits hits.bin\n  arbor trace --mesh bunny.obj --rays rays.bin --query count --hits counts.bin"
+    )]
     Trace(trace::TraceArgs),
     /// Inside or outside a closed triangle mesh, for a batch of points.
     Inside(points::InsideArgs),
@@ -43,10 +59,19 @@ enum Command {
     Nearest(points::NearestArgs),
     /// Benchmark the acceleration structures on a mesh or scene: build time,
     /// size, shape, Mrays/s and nodes and tests per ray.
+    #[command(
+        after_help = "Example:\n  arbor bench buddha100k.msh --accel bvh-wide,grid --json bench.json"
+    )]
     Bench(bench::BenchArgs),
     /// Assemble partial images (`render --tile`) into one PNG or EXR.
+    #[command(
+        after_help = "Example:\n  arbor merge s.tile-0-of-2.part s.tile-1-of-2.part -o s.png"
+    )]
     Merge(merge::MergeArgs),
     /// Render on a cluster: submit tiles as Slurm array jobs, show progress.
+    #[command(
+        after_help = "Examples:\n  arbor farm slurm shot.xml --tiles 64 --partition gpu --account proj42 -o shot.png\n  arbor farm status shot.png"
+    )]
     Farm(farm::FarmArgs),
 }
 

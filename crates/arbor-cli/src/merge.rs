@@ -4,7 +4,6 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
 use arbor::film::{Film, ImageFormat};
 use arbor::partial::{Assembly, PartHeader, Partial};
 use clap::Args;
@@ -28,12 +27,10 @@ pub struct MergeArgs {
 
 /// Runs `arbor merge`.
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    crate::output::check_writable(&args.output, "-o")?;
     ImageFormat::from_path(&args.output).map_err(|e| InputError(e.to_string()))?;
     let film = merge_files(&args.parts)?;
-    let variant = film.1;
-    film.0
-        .write(&args.output, variant)
-        .with_context(|| "writing the image")?;
+    crate::output::stage_film(&args.output, &film.0, film.1)?.commit()?;
     if !args.quiet {
         eprintln!(
             "wrote {} ({}x{}) from {} parts",

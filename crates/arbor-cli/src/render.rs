@@ -5,16 +5,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Context;
 use arbor::film::ImageFormat;
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
 use arbor::render::Region;
+use arbor::scene::Scene;
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use arbor::render::render_region_with;
+use arbor::render::render_region_observed;
 use arbor::stats::{NoStats, RayKind, RenderStats};
 
 use crate::InputError;
@@ -72,163 +72,49 @@ pub struct RenderArgs {
     /// file has its own.
     #[arg(long, value_name = "auto", value_parser = ["auto"])]
     pub camera: Option<String>,
+    /// Render only the pixels x0..x1 by y0..y1 (row 0 at the top, ends
+    /// excluded) as a picture of that size (or a `.part` file, as --region).
+    #[arg(long, value_name = "x0,y0,x1,y1", value_parser = crate::farm::part::parse_region, conflicts_with_all = ["tile", "region"])]
+    pub crop: Option<Region>,
+    /// While rendering, write the picture so far to the output every
+    /// SECONDS (atomically: a viewer can keep it open); removed again if the
+    /// render is interrupted without --partial.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    pub preview_every: Option<f64>,
+    /// Scene overrides.
+    #[command(flatten)]
+    pub overrides: crate::overrides::Overrides,
 }
 
 /// Runs `arbor render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
-    let pool = crate::thread_pool(args.threads)?;
-    pool.install(|| render_in_pool(&args))
+    crate::thread_pool(args.threads)?.install(|| render(&args))
 }
 
-fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
+/// The steps of a render, each named; every check comes before the work.
+fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
-    let (scene, output) = match &args.scene {
-        Some(path) => {
-            let options = arbor::load::ModelOptions {
-                up: args.up,
-                auto_camera: args.camera.is_some(),
-            };
-            let loaded = arbor::load::load_scene_with(path, &options)
-                .map_err(|e| InputError(e.to_string()))?;
-            if !args.quiet {
-                for w in &loaded.warnings {
-                    eprintln!("{w}");
-                }
-            }
-            let stem = path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| "out".into());
-            (loaded.scene, PathBuf::from(format!("{stem}.png")))
-        }
-        None => (
-            arbor::default_scene::classroom(),
-            PathBuf::from("arbor.png"),
-        ),
-    };
-    // Partial renders: --tile, --region or a `.part` output (farm::part).
-    let part_spec = crate::farm::part::spec(args.tile, args.region);
-    let target = crate::farm::part::target(part_spec, args.output.as_deref(), &output, &scene)?;
-    let (output, part) = (target.output, target.part);
-    // Check the format before spending time on the render.
-    if part.is_none() {
-        ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
-    }
-    let region = part.map_or(
-        Region {
-            x0: 0,
-            y0: 0,
-            x1: scene.width,
-            y1: scene.height,
-        },
-        |p| p.0,
-    );
-    if let Some(path) = &args.heatmap {
-        check_heatmap_path(path)?;
-    }
+    let job = prepare(args)?;
     let loaded = start.elapsed();
-
-    let flat = match args.bvol {
-        Some(_) => Flattened::bounded(&scene, args.max_instances),
-        None => Flattened::new(&scene, args.max_instances),
-    }
-    .map_err(|e| InputError(e.to_string()))?;
-    let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
-    let build_start = Instant::now();
-    let tracer = match args.bvol {
-        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
-        None => Tracer::from_flattened(flat, args.accel),
-    };
-    let built = build_start.elapsed();
-
-    let cancel = Arc::new(AtomicBool::new(false));
-    install_interrupt_handler(cancel.clone());
-    let total = region.area();
-    let bar = progress_bar(total, args.quiet);
-    let render_start = Instant::now();
-    let film = render_counted(
-        &scene,
-        &tracer,
-        region,
-        &|n| bar.inc(n),
-        &cancel,
-        args.stats,
-    );
-    bar.finish_and_clear();
-    let (film, ray_stats) = match film {
-        Ok(f) => f,
-        Err(cancelled) => {
-            if args.partial && part.is_none() {
-                cancelled.partial.write(&output, scene.variant)?;
-                anyhow::bail!(
-                    "interrupted: wrote the finished tiles to {} (--partial)",
-                    output.display()
-                );
-            }
-            anyhow::bail!("interrupted: no image written")
-        }
-    };
-    let rendered = render_start.elapsed();
-    match part {
-        // A part records where it belongs and what it was rendered from.
-        Some((region, tile)) => arbor::partial::Partial {
-            header: arbor::partial::PartHeader {
-                width: scene.width,
-                height: scene.height,
-                region,
-                tile,
-                variant: scene.variant,
-                scene_hash: arbor::partial::scene_hash(&scene),
-            },
-            film,
-        }
-        .write(&output),
-        None => film.write(&output, scene.variant),
-    }
-    .with_context(|| "writing the image")?;
+    let built = build(args, &job.scene)?;
+    let (film, ray_stats, rendered) = trace_image(args, &job, &built.tracer)?;
+    let heatmap = write_outputs(args, &job, &built.tracer, film)?;
     if !args.quiet {
+        let (w, h) = (job.region.x1 - job.region.x0, job.region.y1 - job.region.y0);
+        let spp = job.scene.samples_per_side * job.scene.samples_per_side;
         eprintln!(
-            "wrote {} ({}x{}, {} samples per pixel) in {:.2} s",
-            output.display(),
-            scene.width,
-            scene.height,
-            scene.samples_per_side * scene.samples_per_side,
+            "wrote {} ({w}x{h}, {}) in {:.2} s",
+            job.output.display(),
+            plural(spp.into(), "sample per pixel", "samples per pixel"),
             start.elapsed().as_secs_f64()
         );
     }
-    let heatmap = match &args.heatmap {
-        Some(path) => Some(write_heatmap(&scene, &tracer, path)?),
-        None => None,
-    };
     if args.stats {
-        let s = arbor_accel::Accelerator::stats(tracer.accel());
-        eprintln!(
-            "primitives: {unique} unique, {} placements of shared geometry, {instanced} as placed",
-            tracer.placements()
-        );
-        eprintln!(
-            "accel {}: top level {} nodes, {} leaves, depth {}; all levels {} bytes",
-            tracer.kind(),
-            s.nodes,
-            s.leaves,
-            s.max_depth,
-            tracer.accel_memory_bytes()
-        );
-        if let Some(volume) = args.bvol {
-            let v = tracer.volume_stats();
-            let load =
-                |a: &std::sync::atomic::AtomicU64| a.load(std::sync::atomic::Ordering::Relaxed);
-            eprintln!(
-                "bounding volumes ({volume:?}): {} tests, {} missed, {} surface tests saved",
-                load(&v.tests),
-                load(&v.misses),
-                load(&v.saved)
-            );
-        }
+        print_build_stats(args, &built);
         eprintln!(
             "time: load {:.3} s, build {:.3} s, render {:.3} s",
             loaded.as_secs_f64(),
-            built.as_secs_f64(),
+            built.took.as_secs_f64(),
             rendered.as_secs_f64()
         );
     }
@@ -236,6 +122,258 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
         print_ray_stats(stats, heatmap.as_ref());
     }
     Ok(())
+}
+
+/// A render ready to run: the scene as overridden, and where it goes.
+struct Job {
+    scene: Scene,
+    output: PathBuf,
+    /// The pixels computed (the whole image unless a tile, region or crop).
+    region: Region,
+    /// For a `.part` output: the tile it is, if one.
+    part: Option<Option<(u32, u32)>>,
+}
+
+/// Checks every output (before loading anything), loads the scene and
+/// applies the overrides, and decides which pixels to compute.
+fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
+    let default_picture = match &args.scene {
+        Some(path) => {
+            let stem = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "out".into());
+            PathBuf::from(format!("{stem}.png"))
+        }
+        None => PathBuf::from("arbor.png"),
+    };
+    // Partial renders: --tile, --region or a `.part` output (farm::part);
+    // --crop is a region written as a picture.
+    let crop = args.crop.is_some();
+    let spec = crate::farm::part::spec(args.tile, args.region.or(args.crop));
+    let output =
+        crate::farm::part::output_path(spec, args.output.as_deref(), &default_picture, crop);
+    crate::output::check_writable(&output, "-o")?;
+    let is_part = crate::farm::part::check_kind(spec, &output, crop)?;
+    if is_part && args.preview_every.is_some() {
+        return Err(InputError(format!(
+            "{}: --preview-every writes pictures, not .part files",
+            output.display()
+        ))
+        .into());
+    }
+    if !is_part {
+        ImageFormat::from_path(&output).map_err(|e| InputError(e.to_string()))?;
+    }
+    if let Some(path) = &args.heatmap {
+        check_heatmap_path(path)?;
+        crate::output::check_writable(path, "--heatmap")?;
+    }
+
+    let mut scene = match &args.scene {
+        Some(path) => {
+            let options = arbor::load::ModelOptions {
+                up: args.up,
+                auto_camera: args.camera.is_some(),
+            };
+            let loaded = load_scene_or_model(path, &options)?;
+            if !args.quiet {
+                for w in &loaded.warnings {
+                    eprintln!("{w}");
+                }
+            }
+            loaded.scene
+        }
+        None => arbor::default_scene::classroom(),
+    };
+    args.overrides.apply(&mut scene)?;
+    let (region, tile) = match spec {
+        // `resolve` names --region; a crop is the same rectangle, named as given.
+        Some(spec) => crate::farm::part::resolve(spec, &scene).map_err(|e| match crop {
+            true => InputError(e.0.replacen("--region", "--crop", 1)),
+            false => e,
+        })?,
+        None => (crate::farm::part::whole(&scene), None),
+    };
+    Ok(Job {
+        scene,
+        output,
+        region,
+        part: is_part.then_some(tile),
+    })
+}
+
+/// The tracer and what building it took.
+struct Built {
+    tracer: Tracer,
+    unique: u64,
+    instanced: u64,
+    took: std::time::Duration,
+}
+
+/// Flattens the scene and builds the acceleration structure.
+fn build(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Built> {
+    let flat = match args.bvol {
+        Some(_) => Flattened::bounded(scene, args.max_instances),
+        None => Flattened::new(scene, args.max_instances),
+    }
+    .map_err(|e| InputError(e.to_string()))?;
+    let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
+    let start = Instant::now();
+    let tracer = match args.bvol {
+        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
+        None => Tracer::from_flattened(flat, args.accel),
+    };
+    Ok(Built {
+        tracer,
+        unique,
+        instanced,
+        took: start.elapsed(),
+    })
+}
+
+/// A finished film, its ray statistics (with `--stats`) and the render time.
+type Traced = (arbor::film::Film, Option<RenderStats>, std::time::Duration);
+
+/// Renders the job's pixels with a progress bar. On Ctrl-C: with
+/// `--partial`, writes the tiles done so far and fails; otherwise fails
+/// having written nothing.
+fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<Traced> {
+    let cancel = Arc::new(AtomicBool::new(false));
+    install_interrupt_handler(cancel.clone());
+    let total = job.region.area();
+    let bar = progress_bar(total, args.quiet);
+    let spp = u64::from(job.scene.samples_per_side * job.scene.samples_per_side);
+    let warned = AtomicBool::new(args.quiet);
+    let start = Instant::now();
+    let progress = |n: u64| {
+        bar.inc(n);
+        let secs = start.elapsed().as_secs_f64();
+        let done = bar.position().max(1);
+        bar.set_message(format!(
+            "{:.2} M camera rays/s",
+            (done * spp) as f64 / secs.max(1e-9) / 1e6
+        ));
+        // Judged once, after a couple of seconds of real progress.
+        if secs > SLOW_JUDGED_AFTER_SECONDS && !warned.swap(true, Ordering::Relaxed) {
+            let estimate = secs * total as f64 / done as f64;
+            if estimate > SLOW_RENDER_SECONDS {
+                let why = slow_render_warning(args, &job.scene, tracer, estimate);
+                bar.suspend(|| eprintln!("{why}"));
+            }
+        }
+    };
+    let preview = Preview::new(job, args.preview_every);
+    let film = std::thread::scope(|threads| {
+        if let Some(every) = args.preview_every {
+            let preview = &preview;
+            threads.spawn(move || preview.keep_writing(every, job));
+        }
+        let film = render_counted(
+            &job.scene,
+            tracer,
+            job.region,
+            &progress,
+            &|tile, pixels| preview.add(tile, pixels),
+            &cancel,
+            args.stats,
+        );
+        preview.stop();
+        film
+    });
+    bar.finish_and_clear();
+    match film {
+        Ok((film, stats)) => Ok((film, stats, start.elapsed())),
+        Err(cancelled) if args.partial && job.part.is_none() => {
+            crate::output::stage_film(&job.output, &cancelled.partial, job.scene.variant)?
+                .commit()?;
+            anyhow::bail!(
+                "interrupted: wrote the finished tiles to {} (--partial)",
+                job.output.display()
+            )
+        }
+        Err(_) => {
+            preview.remove(job);
+            anyhow::bail!("interrupted: no image written")
+        }
+    }
+}
+
+/// Writes the picture (or part) and the heatmap: all of them or none.
+fn write_outputs(
+    args: &RenderArgs,
+    job: &Job,
+    tracer: &Tracer,
+    film: arbor::film::Film,
+) -> anyhow::Result<Option<(arbor::heatmap::CostMap, std::time::Duration)>> {
+    let scene = &job.scene;
+    let mut staged = vec![match job.part {
+        // A part records where it belongs and what it was rendered from.
+        Some(tile) => {
+            let part = arbor::partial::Partial {
+                header: arbor::partial::PartHeader {
+                    width: scene.width,
+                    height: scene.height,
+                    region: job.region,
+                    tile,
+                    variant: scene.variant,
+                    scene_hash: arbor::partial::scene_hash(scene),
+                },
+                film,
+            };
+            crate::output::stage(&job.output, |w| part.encode(w))?
+        }
+        None => crate::output::stage_film(&job.output, &film, scene.variant)?,
+    }];
+    let heatmap = match &args.heatmap {
+        Some(path) => {
+            let start = Instant::now();
+            let map = arbor::heatmap::primary_cost(scene, tracer);
+            let canvas = arbor::heatmap::heatmap_canvas(&map);
+            staged.push(crate::output::stage(path, |w| {
+                arbor::film::encode_png(w, canvas.width, canvas.height, &canvas.rgb)
+            })?);
+            Some((map, start.elapsed()))
+        }
+        None => None,
+    };
+    crate::output::commit_all(staged)?;
+    Ok(heatmap)
+}
+
+/// The `--stats` lines about the scene's primitives and structures.
+fn print_build_stats(args: &RenderArgs, built: &Built) {
+    let tracer = &built.tracer;
+    let s = arbor_accel::Accelerator::stats(tracer.accel());
+    eprintln!(
+        "primitives: {} unique, {} of shared geometry, {} as placed",
+        built.unique,
+        plural(tracer.placements() as u64, "placement", "placements"),
+        built.instanced
+    );
+    eprintln!(
+        "accel {}: top level {}, {}, depth {}; all levels {} bytes",
+        tracer.kind(),
+        plural(s.nodes as u64, "node", "nodes"),
+        plural(s.leaves as u64, "leaf", "leaves"),
+        s.max_depth,
+        tracer.accel_memory_bytes()
+    );
+    if let Some(volume) = args.bvol {
+        let v = tracer.volume_stats();
+        let load = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed);
+        eprintln!(
+            "bounding volumes ({volume:?}): {} tests, {} missed, {} surface tests saved",
+            load(&v.tests),
+            load(&v.misses),
+            load(&v.saved)
+        );
+    }
+}
+
+/// `1 sample`, `2 samples`: the count with the word that fits it.
+pub fn plural(n: u64, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
 }
 
 // --- `--stats` (rays by kind) and `--heatmap` -------------------------------
@@ -246,27 +384,109 @@ fn render_in_pool(args: &RenderArgs) -> anyhow::Result<()> {
 fn render_counted(
     scene: &arbor::scene::Scene,
     tracer: &Tracer,
-    region: arbor::render::Region,
+    region: Region,
     progress: &(dyn Fn(u64) + Sync),
+    on_tile: &(dyn Fn(Region, &[glam::DVec3]) + Sync),
     cancel: &AtomicBool,
     count: bool,
 ) -> Result<(arbor::film::Film, Option<RenderStats>), arbor::render::Cancelled> {
     if count {
-        render_region_with::<RenderStats>(scene, tracer, region, progress, cancel)
+        render_region_observed::<RenderStats>(scene, tracer, region, progress, on_tile, cancel)
             .map(|(film, stats)| (film, Some(stats)))
     } else {
-        render_region_with::<NoStats>(scene, tracer, region, progress, cancel)
+        render_region_observed::<NoStats>(scene, tracer, region, progress, on_tile, cancel)
             .map(|(film, _)| (film, None))
     }
 }
 
+/// `--preview-every`: the tiles finished so far, written to the output now
+/// and then while the render runs.
+struct Preview {
+    /// The pixels of the job's region, `None` without `--preview-every`.
+    film: Option<std::sync::Mutex<arbor::film::Film>>,
+    /// The region's top-left pixel in the image.
+    origin: (u32, u32),
+    done: AtomicBool,
+    written: AtomicBool,
+}
+
+impl Preview {
+    fn new(job: &Job, every: Option<f64>) -> Preview {
+        let r = job.region;
+        Preview {
+            film: every
+                .map(|_| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
+            origin: (r.x0, r.y0),
+            done: AtomicBool::new(false),
+            written: AtomicBool::new(false),
+        }
+    }
+
+    fn lock(&self) -> Option<std::sync::MutexGuard<'_, arbor::film::Film>> {
+        self.film
+            .as_ref()
+            .map(|f| f.lock().unwrap_or_else(|e| e.into_inner()))
+    }
+
+    /// Copies a finished tile (in image coordinates) into the preview of
+    /// `region`'s pixels.
+    fn add(&self, tile: Region, pixels: &[glam::DVec3]) {
+        let Some(mut film) = self.lock() else { return };
+        let mut k = 0;
+        for row in tile.y0..tile.y1 {
+            for col in tile.x0..tile.x1 {
+                film.set(col - self.origin.0, row - self.origin.1, pixels[k]);
+                k += 1;
+            }
+        }
+    }
+
+    /// Writes the preview every `every` seconds until [`Preview::stop`].
+    fn keep_writing(&self, every: f64, job: &Job) {
+        let mut last = Instant::now();
+        while !self.done.load(Ordering::Relaxed) {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            if last.elapsed().as_secs_f64() < every {
+                continue;
+            }
+            last = Instant::now();
+            let Some(film) = self.lock().map(|f| f.clone()) else {
+                return;
+            };
+            // The render goes on even if a preview cannot be written.
+            if crate::output::stage_film(&job.output, &film, job.scene.variant)
+                .and_then(|s| s.commit())
+                .is_ok()
+            {
+                self.written.store(true, Ordering::Relaxed);
+            }
+        }
+    }
+
+    fn stop(&self) {
+        self.done.store(true, Ordering::Relaxed);
+    }
+
+    /// After an interrupt without `--partial`: no picture is left.
+    fn remove(&self, job: &Job) {
+        if self.written.load(Ordering::Relaxed) {
+            let _ = std::fs::remove_file(&job.output);
+        }
+    }
+}
+
+/// Parses `--preview-every SECONDS` (for clap): a number above 0.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .ok_or_else(|| format!("`{text}`: expected a number of seconds above 0, e.g. 5"))
+}
+
 /// `--heatmap` writes an 8-bit PNG; anything else is refused before rendering.
 fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
-    let is_png = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if is_png {
+    if crate::output::has_png_extension(path) {
         Ok(())
     } else {
         Err(InputError(format!(
@@ -274,18 +494,6 @@ fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
             path.display()
         )))
     }
-}
-
-/// Writes the primary-ray cost heatmap; returns the map and how long it took.
-fn write_heatmap(
-    scene: &arbor::scene::Scene,
-    tracer: &Tracer,
-    path: &Path,
-) -> anyhow::Result<(arbor::heatmap::CostMap, std::time::Duration)> {
-    let start = Instant::now();
-    let map = arbor::heatmap::write_heatmap(scene, tracer, path)
-        .with_context(|| "writing the heatmap")?;
-    Ok((map, start.elapsed()))
 }
 
 /// The `--stats` lines about rays: count, nodes and tests per ray by kind.
@@ -323,8 +531,39 @@ fn print_ray_stats(
 
 /// What `arbor render` draws: a Cornell XML scene or a framed model, chosen
 /// by the loader's format registry.
-pub(crate) fn load_scene_or_model(path: &Path) -> anyhow::Result<arbor::xml::LoadedScene> {
-    arbor::load::load_scene(path).map_err(|e| InputError(e.to_string()).into())
+pub(crate) fn load_scene_or_model(
+    path: &Path,
+    options: &arbor::load::ModelOptions,
+) -> anyhow::Result<arbor::xml::LoadedScene> {
+    arbor::load::load_scene_with(path, options).map_err(|e| InputError(e.to_string()).into())
+}
+
+/// A render estimated to take longer than this says so, with the reason.
+const SLOW_RENDER_SECONDS: f64 = 300.0;
+/// When the estimate is made (earlier ones are mostly start-up).
+const SLOW_JUDGED_AFTER_SECONDS: f64 = 2.0;
+
+/// The early warning for a long render: the estimate, what the camera rays
+/// cost (nodes visited plus primitives tested, measured on a small copy of
+/// the view) and the faster choice.
+fn slow_render_warning(args: &RenderArgs, scene: &Scene, tracer: &Tracer, estimate: f64) -> String {
+    let mut probe = scene.clone();
+    crate::overrides::resize(
+        &mut probe,
+        40,
+        (40 * scene.height / scene.width.max(1)).max(1),
+    );
+    let cost = arbor::heatmap::primary_cost(&probe, tracer).mean();
+    let faster = if args.accel == AccelKind::DEFAULT {
+        "--quick, or a smaller --size or --spp, previews it faster".to_string()
+    } else {
+        format!("--accel {} is usually much faster", AccelKind::DEFAULT)
+    };
+    format!(
+        "warning: this render will take about {:.0} min: each camera ray costs {cost:.0} nodes and tests with --accel {}; {faster}",
+        (estimate / 60.0).ceil(),
+        args.accel
+    )
 }
 
 fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
@@ -334,7 +573,7 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     // indicatif hides a stderr bar by itself when stderr is not a terminal.
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise} ETA {eta}")
+        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed_precise}, {eta} left, {msg}")
             .expect("valid template"),
     );
     bar
@@ -345,6 +584,7 @@ fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
 fn install_interrupt_handler(cancel: Arc<AtomicBool>) {
     let _ = ctrlc::set_handler(move || {
         if cancel.swap(true, Ordering::SeqCst) {
+            crate::output::remove_pending();
             std::process::exit(130);
         }
     });

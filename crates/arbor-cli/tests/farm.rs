@@ -236,7 +236,7 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
         ],
         &[],
     ));
-    assert!(text(&o).contains("1 task(s), array 3 "), "{}", text(&o));
+    assert!(text(&o).contains("1 task, array 3 "), "{}", text(&o));
     assert!(fs::read(d.join("out/a.png")).unwrap() == fs::read(d.join("a.png")).unwrap());
 
     // 3. A sequence of two scenes, 4 tiles each, submitted held; one task
@@ -268,7 +268,7 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
     let mut again = seq.to_vec();
     again.push("--wait");
     let o = ok(arbor(d, &again, &[]));
-    assert!(text(&o).contains("1 task(s), array 5 "), "{}", text(&o));
+    assert!(text(&o).contains("1 task, array 5 "), "{}", text(&o));
     for name in ["a", "b"] {
         assert!(
             fs::read(d.join(format!("frames/{name}.png"))).unwrap()
@@ -278,6 +278,63 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
     }
     // The stale merge job of the first submission is gone from the queue.
     wait_gone(&merge);
+}
+
+/// The cluster options reach the jobs Slurm holds: submitted held, the
+/// render array and the merge job both carry the account, the memory and
+/// an option given through `--sbatch-arg` (this single-node cluster has no
+/// QOS, GRES or node features to accept the others, which the dry run
+/// checks).
+#[test]
+fn slurm_jobs_carry_the_cluster_options() {
+    if !slurm_or_skip() {
+        return;
+    }
+    let dir = setup();
+    let d = dir.path();
+    ok(arbor(
+        d,
+        &[
+            "farm",
+            "slurm",
+            "a.xml",
+            "--tiles",
+            "2",
+            "-o",
+            "opt.png",
+            "--account",
+            "arbor-acct",
+            "--mem",
+            "1M",
+            "--sbatch-arg=--comment=arbor-farm-options",
+        ],
+        &[("SBATCH_HOLD", "1")],
+    ));
+    let parts = d.join("opt.png.parts");
+    let ids = [
+        jobs(&parts, "render").pop().unwrap(),
+        jobs(&parts, "merge").pop().unwrap(),
+    ];
+    for id in &ids {
+        let o = tool("scontrol", &["show", "job", id]);
+        let shown = text(&o);
+        for needle in [
+            "Account=arbor-acct",
+            "Comment=arbor-farm-options",
+            "MinMemoryNode=1M",
+        ] {
+            assert!(
+                shown.contains(needle),
+                "job {id}: `{needle}` not in:\n{shown}"
+            );
+        }
+    }
+    for id in &ids {
+        assert!(tool("scancel", &[id]).status.success());
+    }
+    for id in &ids {
+        wait_gone(id);
+    }
 }
 
 /// Without a scheduler: `--dry-run` prints both scripts with the array,
@@ -299,6 +356,19 @@ fn dry_run_prints_the_scripts() {
             "gpu",
             "--time",
             "5:00",
+            "--account",
+            "proj42",
+            "--qos",
+            "short",
+            "--mem",
+            "4G",
+            "--gres",
+            "gpu:1",
+            "--constraint",
+            "avx2",
+            "--sbatch-arg=--mail-type=END",
+            "--sbatch-arg",
+            "--nice=5",
             "--dry-run",
             "-o",
             "seq",
@@ -306,6 +376,20 @@ fn dry_run_prints_the_scripts() {
         &[],
     ));
     let t = text(&o);
+    // Every job (both scripts) gets every cluster option.
+    for option in [
+        "#SBATCH --partition=gpu\n",
+        "#SBATCH --time=5:00\n",
+        "#SBATCH --account=proj42\n",
+        "#SBATCH --qos=short\n",
+        "#SBATCH --mem=4G\n",
+        "#SBATCH --gres=gpu:1\n",
+        "#SBATCH --constraint=avx2\n",
+        "#SBATCH --mail-type=END\n",
+        "#SBATCH --nice=5\n",
+    ] {
+        assert_eq!(t.matches(option).count(), 2, "`{option}` not in both:\n{t}");
+    }
     for needle in [
         "#SBATCH --array=0-5",
         "#SBATCH --requeue",
@@ -388,6 +472,43 @@ fn farm_input_errors() {
             "none.xml",
         ),
         (vec!["status", "nowhere.png"], "no farm render"),
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "x.png",
+                "--sbatch-arg=mail",
+            ],
+            "expected an sbatch option",
+        ),
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "x.png",
+                "--account",
+                "a\nb",
+            ],
+            "one line",
+        ),
+        (
+            vec![
+                "slurm",
+                "a.xml",
+                "--tiles",
+                "2",
+                "-o",
+                "a.xml/x.png",
+                "--dry-run",
+            ],
+            "a.xml is not a folder",
+        ),
     ] {
         let mut a = vec!["farm"];
         a.extend(args.iter());

@@ -205,3 +205,57 @@ fn up_and_camera_flags() {
         assert!(!dir.path().join("bad.png").exists());
     }
 }
+
+/// A model's report: bounds, counts, materials with their textures, the
+/// automatic camera, lights and floor said to be automatic (and the floor
+/// kept out of the model's hierarchy), no Cornell conventions; the same as
+/// JSON with `--json`, written only when everything succeeded.
+#[test]
+fn info_describes_a_model_and_writes_json() {
+    let Some(models) = models() else { return };
+    let spider = models.join("OBJ/spider.obj");
+    let dir = tempfile::tempdir().unwrap();
+    let o = arbor(
+        dir.path(),
+        &["info", spider.to_str().unwrap(), "--json", "spider.json"],
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for needle in [
+        "\nbounds      (",
+        "\nvertices    ",
+        "\nmaterials   ",
+        ", texture ",
+        "\ncamera      automatic (framing the model), at (",
+        "lights (automatic)",
+        "\nfloor       automatic: a box ",
+    ] {
+        assert!(out.contains(needle), "`{needle}` not in:\n{out}");
+    }
+    assert!(!out.contains("conventions"), "{out}");
+    assert!(
+        !out.contains("\n  box "),
+        "the floor in the hierarchy:\n{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("spider.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["kind"], "model");
+    assert_eq!(json["camera"]["source"], "automatic");
+    assert_eq!(json["floor"]["automatic"], true);
+    assert_eq!(json["bounds"]["min"].as_array().unwrap().len(), 3);
+    let materials = json["materials"].as_array().unwrap();
+    assert!(!materials.is_empty());
+    assert!(materials
+        .iter()
+        .any(|m| m["texture"]["width"].as_u64() > Some(0)));
+    let triangles: u64 = materials
+        .iter()
+        .map(|m| m["triangles"].as_u64().unwrap())
+        .sum();
+    assert_eq!(json["triangles"].as_u64(), Some(triangles));
+    // A missing model: exit 2 and no JSON left.
+    let o = arbor(dir.path(), &["info", "none.obj", "--json", "none.json"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!dir.path().join("none.json").exists());
+}

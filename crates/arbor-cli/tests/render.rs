@@ -414,12 +414,12 @@ fn info_reports_hierarchy_and_instancing() {
     assert!(out.status.success(), "{}", stderr(&out));
     let text = String::from_utf8_lossy(&out.stdout);
     for line in [
-        "image       16x12, 1 samples per pixel",
+        "image       16x12, 1 sample per pixel",
         "primitives  2 unique",
         "placements  2 of shared geometry",
         "as placed   3 primitives",
         "instance of #1:",
-        "mesh 1 triangles, 3 vertices",
+        "mesh 1 triangle, 3 vertices",
         "instance of #1 (shown above)",
     ] {
         assert!(text.contains(line), "missing {line:?} in:\n{text}");
@@ -612,4 +612,61 @@ fn hostile_inputs_fail_fast() {
             start.elapsed()
         );
     }
+}
+
+/// `--preview-every`: while the render runs, the output appears as a whole,
+/// valid picture of the full size; interrupted without `--partial`, it is
+/// removed again. A preview with a `.part` output is refused.
+#[test]
+fn preview_appears_while_rendering_and_goes_on_interrupt() {
+    let case = Case::new(&slow_scene());
+    let out = case.path().join("slow.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args([
+            "render",
+            "s.xml",
+            "-q",
+            "--accel",
+            "list",
+            "-o",
+            "slow.png",
+            "--preview-every",
+            "0.2",
+        ])
+        .current_dir(case.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // A deadline only so that a broken preview fails instead of hanging.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let mut seen = None;
+    while seen.is_none() && std::time::Instant::now() < deadline {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before any preview"
+        );
+        if out.exists() {
+            seen = Some(image::open(&out).expect("a whole, valid PNG"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let img = seen.expect("no preview appeared");
+    assert_eq!((img.width(), img.height()), (600, 400));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        stderr(&o).contains("interrupted: no image written"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "the preview was left behind");
+    let o = case.render(&["--preview-every", "1", "-o", "x.part"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--preview-every writes pictures"));
+    let o = case.render(&["--preview-every", "0"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }

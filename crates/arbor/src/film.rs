@@ -3,7 +3,7 @@
 //! target and renamed, so a failure never leaves a partial picture.
 
 use std::fs;
-use std::io::{self, Write};
+use std::io::{self, Seek, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
@@ -59,13 +59,25 @@ impl Film {
     /// Writes the film to `path`: 8-bit PNG for `.png`, linear float OpenEXR
     /// for `.exr` (any case).
     pub fn write(&self, path: &Path, variant: Variant) -> Result<(), WriteError> {
-        match ImageFormat::from_path(path)? {
-            ImageFormat::Png => write_png(path, self.width, self.height, &self.to_rgb8(variant)),
-            ImageFormat::Exr => self.write_exr(path),
+        let format = ImageFormat::from_path(path)?;
+        atomic_write(path, |file| self.encode(format, variant, file))
+    }
+
+    /// Encodes the film as a `format` file into `out` (the bytes
+    /// [`Film::write`] puts in a file; for callers with their own writer).
+    pub fn encode(
+        &self,
+        format: ImageFormat,
+        variant: Variant,
+        out: &mut (impl Write + Seek),
+    ) -> io::Result<()> {
+        match format {
+            ImageFormat::Png => encode_png(out, self.width, self.height, &self.to_rgb8(variant)),
+            ImageFormat::Exr => self.encode_exr(out),
         }
     }
 
-    fn write_exr(&self, path: &Path) -> Result<(), WriteError> {
+    fn encode_exr(&self, out: &mut (impl Write + Seek)) -> io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
         let pixels = &self.pixels;
@@ -76,12 +88,10 @@ impl Film {
                 (c.x as f32, c.y as f32, c.z as f32)
             }),
         );
-        atomic_write(path, |file| {
-            image
-                .write()
-                .to_buffered(file)
-                .map_err(|e| io::Error::other(e.to_string()))
-        })
+        image
+            .write()
+            .to_buffered(out)
+            .map_err(|e| io::Error::other(e.to_string()))
     }
 }
 
@@ -142,17 +152,20 @@ pub enum WriteError {
 
 /// Writes 8-bit RGB `bytes` as a PNG (colour type 2, no alpha, no gamma chunk).
 pub fn write_png(path: &Path, width: u32, height: u32, bytes: &[u8]) -> Result<(), WriteError> {
-    atomic_write(path, |file| {
-        let encoder = image::codecs::png::PngEncoder::new(file);
-        image::ImageEncoder::write_image(
-            encoder,
-            bytes,
-            width,
-            height,
-            image::ExtendedColorType::Rgb8,
-        )
-        .map_err(|e| io::Error::other(e.to_string()))
-    })
+    atomic_write(path, |file| encode_png(file, width, height, bytes))
+}
+
+/// Encodes 8-bit RGB `bytes` as the PNG [`write_png`] writes, into `out`.
+pub fn encode_png(out: &mut impl Write, width: u32, height: u32, bytes: &[u8]) -> io::Result<()> {
+    let encoder = image::codecs::png::PngEncoder::new(out);
+    image::ImageEncoder::write_image(
+        encoder,
+        bytes,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|e| io::Error::other(e.to_string()))
 }
 
 /// Writes through `fill` into a temporary file beside `path`, then renames it

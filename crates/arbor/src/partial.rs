@@ -196,32 +196,34 @@ impl Partial {
     /// Writes the part to `path` (through a temporary file and a rename, so
     /// a part on disk is always whole: a farm treats its presence as done).
     pub fn write(&self, path: &Path) -> Result<(), WriteError> {
+        atomic_write(path, |file| self.encode(file))
+    }
+
+    /// Encodes the part file [`Partial::write`] writes into `out` (for
+    /// callers with their own writer); fails when the film is not the size
+    /// of the header's region.
+    pub fn encode(&self, out: &mut impl Write) -> io::Result<()> {
         let r = self.header.region;
         if self.film.width() != r.x1 - r.x0 || self.film.height() != r.y1 - r.y0 {
-            return Err(WriteError::Io {
-                path: path.to_path_buf(),
-                source: io::Error::other("film size differs from the part's region"),
-            });
+            return Err(io::Error::other("film size differs from the part's region"));
         }
-        atomic_write(path, |file| {
-            let mut sha = Sha256::new();
-            let header = self.header.encode();
-            sha.update(&header);
-            file.write_all(&header)?;
-            let mut row = Vec::with_capacity(self.film.width() as usize * 24);
-            for y in 0..self.film.height() {
-                row.clear();
-                for x in 0..self.film.width() {
-                    let p = self.film.get(x, y);
-                    for c in [p.x, p.y, p.z] {
-                        row.extend_from_slice(&c.to_le_bytes());
-                    }
+        let mut sha = Sha256::new();
+        let header = self.header.encode();
+        sha.update(&header);
+        out.write_all(&header)?;
+        let mut row = Vec::with_capacity(self.film.width() as usize * 24);
+        for y in 0..self.film.height() {
+            row.clear();
+            for x in 0..self.film.width() {
+                let p = self.film.get(x, y);
+                for c in [p.x, p.y, p.z] {
+                    row.extend_from_slice(&c.to_le_bytes());
                 }
-                sha.update(&row);
-                file.write_all(&row)?;
             }
-            file.write_all(&sha.finish())
-        })
+            sha.update(&row);
+            out.write_all(&row)?;
+        }
+        out.write_all(&sha.finish())
     }
 
     /// Reads and checks a whole part file (header, length, checksum).

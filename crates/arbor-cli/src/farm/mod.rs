@@ -28,15 +28,19 @@ pub struct FarmArgs {
 enum FarmCommand {
     /// Submit a render (one or more scenes, as the frames of a sequence) as
     /// a Slurm array job of tiles plus a merge job that depends on it.
-    Slurm(slurm::SlurmArgs),
+    #[command(
+        after_help = "Example:\n  arbor farm slurm a.xml b.xml --tiles 16 --time 30:00 --mem 4G --sbatch-arg=--mail-type=END -o frames"
+    )]
+    Slurm(Box<slurm::SlurmArgs>),
     /// Tiles done, queued or running, and missing, for a farm render.
+    #[command(after_help = "Example:\n  arbor farm status frames")]
     Status(status::StatusArgs),
 }
 
 /// Runs `arbor farm`.
 pub fn run(args: FarmArgs) -> anyhow::Result<()> {
     match args.command {
-        FarmCommand::Slurm(a) => slurm::run(a),
+        FarmCommand::Slurm(a) => slurm::run(*a),
         FarmCommand::Status(a) => status::run(a),
     }
 }

@@ -108,55 +108,52 @@ pub fn is_part_path(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case(PART_EXTENSION))
 }
 
-/// Where a render goes and, for a partial render, which part it is.
-pub struct Target {
-    /// The output file.
-    pub output: PathBuf,
-    /// For a `.part` output: the region and tile; `None` for a picture.
-    pub part: Option<(Region, Option<(u32, u32)>)>,
-}
-
-/// Decides the output of `arbor render` from its flags: `--tile`/`--region`
-/// write a `.part` file (by default `STEM.tile-K-of-N.part` beside the
-/// current directory's `STEM.png`); a `.part` output without them is the
-/// whole image as one part.
-pub fn target(
+/// The output of `arbor render` from its flags: `-o` if given; else for
+/// `--tile`/`--region`, `STEM.tile-K-of-N.part` or
+/// `STEM.region-x0-y0-x1-y1.part` in the current directory; else (and for
+/// `--crop`) the default picture.
+pub fn output_path(
     spec: Option<PartSpec>,
     output: Option<&Path>,
     default_picture: &Path,
-    scene: &Scene,
-) -> Result<Target, InputError> {
-    let output = match (output, spec) {
+    crop: bool,
+) -> PathBuf {
+    match (output, spec) {
         (Some(o), _) => o.to_path_buf(),
-        (None, Some(spec)) => {
+        (None, Some(spec)) if !crop => {
             let stem = default_picture
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "out".into());
             default_output(&stem, spec)
         }
-        (None, None) => default_picture.to_path_buf(),
-    };
-    let part = match (spec, is_part_path(&output)) {
-        (Some(spec), true) => Some(resolve(spec, scene)?),
-        (None, true) => Some((
-            Region {
-                x0: 0,
-                y0: 0,
-                x1: scene.width,
-                y1: scene.height,
-            },
-            None,
-        )),
-        (Some(_), false) => {
-            return Err(InputError(format!(
-                "{}: --tile and --region write a partial image for `arbor merge`; name it NAME.{PART_EXTENSION}",
-                output.display()
-            )))
-        }
-        (None, false) => None,
-    };
-    Ok(Target { output, part })
+        (None, _) => default_picture.to_path_buf(),
+    }
+}
+
+/// Whether the render writes a `.part` file (`true`) or a picture. A
+/// `.part` output without `--tile` or `--region` is the whole image as
+/// one part; `--tile` and `--region` only write parts (`--crop` may write
+/// either).
+pub fn check_kind(spec: Option<PartSpec>, output: &Path, crop: bool) -> Result<bool, InputError> {
+    let is_part = is_part_path(output);
+    if spec.is_some() && !is_part && !crop {
+        return Err(InputError(format!(
+            "{}: --tile and --region write a partial image for `arbor merge`; name it NAME.{PART_EXTENSION} (or use --crop for a picture)",
+            output.display()
+        )));
+    }
+    Ok(is_part)
+}
+
+/// The whole image of `scene` as a region.
+pub fn whole(scene: &Scene) -> Region {
+    Region {
+        x0: 0,
+        y0: 0,
+        x1: scene.width,
+        y1: scene.height,
+    }
 }
 
 #[cfg(test)]

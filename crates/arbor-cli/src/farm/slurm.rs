@@ -20,6 +20,7 @@ use super::{
     array_batches, index_list, max_array_size, parts_dir, recorded_jobs, render_tasks, squeue,
     Manifest, PartState,
 };
+use crate::output::write_text;
 use crate::InputError;
 
 /// Arguments of `arbor farm slurm`.
@@ -31,12 +32,31 @@ pub struct SlurmArgs {
     /// Tiles per scene (horizontal bands of whole rows; at most the image height).
     #[arg(long, value_name = "N")]
     pub tiles: u32,
-    /// Slurm partition for both jobs.
-    #[arg(long, value_name = "P")]
+    /// Slurm partition for every job.
+    #[arg(long, value_name = "P", value_parser = parse_option_value)]
     pub partition: Option<String>,
-    /// Time limit of each task (Slurm's format, e.g. `10:00`).
-    #[arg(long, value_name = "T")]
+    /// Time limit of each job (Slurm's format, e.g. `10:00` for ten minutes).
+    #[arg(long, value_name = "T", value_parser = parse_option_value)]
     pub time: Option<String>,
+    /// Account charged for every job.
+    #[arg(long, value_name = "A", value_parser = parse_option_value)]
+    pub account: Option<String>,
+    /// Quality of service of every job.
+    #[arg(long, value_name = "Q", value_parser = parse_option_value)]
+    pub qos: Option<String>,
+    /// Memory per node of each job (Slurm's format, e.g. `4G`).
+    #[arg(long, value_name = "M", value_parser = parse_option_value)]
+    pub mem: Option<String>,
+    /// Generic resources of each job (e.g. `gpu:1`).
+    #[arg(long, value_name = "G", value_parser = parse_option_value)]
+    pub gres: Option<String>,
+    /// Node features each job needs (e.g. `avx2`).
+    #[arg(long, value_name = "C", value_parser = parse_option_value)]
+    pub constraint: Option<String>,
+    /// Any other sbatch option, given to every job as is; repeatable
+    /// (e.g. `--sbatch-arg=--mail-type=END`).
+    #[arg(long = "sbatch-arg", value_name = "ARG", allow_hyphen_values = true, value_parser = parse_sbatch_arg)]
+    pub sbatch_args: Vec<String>,
     /// CPUs per render task (its render threads).
     #[arg(long, value_name = "C", default_value_t = 1)]
     pub cpus_per_task: u32,
@@ -55,8 +75,39 @@ pub struct SlurmArgs {
     pub output: PathBuf,
 }
 
-/// Runs `arbor farm slurm`.
+/// Runs `arbor farm slurm`: check, load, see what is left to do, then
+/// print (`--dry-run`) or submit the jobs.
 pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
+    let output = check_args(&args)?;
+    let manifest = load_scenes(&args.scenes, args.tiles, &output)?;
+    let arbor = std::env::current_exe().context("finding the arbor executable")?;
+    let plan = plan(&manifest)?;
+    if plan.todo.is_empty() && plan.active.is_empty() && plan.pictures_done {
+        println!(
+            "{}: complete ({} tiles done, merged); nothing to submit",
+            output.display(),
+            plan.total
+        );
+        return Ok(());
+    }
+    let scripts = Scripts::new(&manifest, &args, &arbor, &plan);
+    if args.dry_run {
+        print_dry_run(&plan, &scripts);
+        return Ok(());
+    }
+    create_folders(&manifest)?;
+    write_text(&Manifest::path(&output), &manifest.to_text())?;
+    let submitted_at = SystemTime::now();
+    let merge_id = submit(&manifest, &plan, &scripts)?;
+    if args.wait {
+        wait_for_merge(&manifest, &merge_id, submitted_at)?;
+    }
+    Ok(())
+}
+
+/// Checks the flags and the output, before any scene is loaded; returns
+/// the output as an absolute path.
+fn check_args(args: &SlurmArgs) -> anyhow::Result<PathBuf> {
     if args.tiles == 0 {
         return Err(InputError("--tiles must be at least 1".into()).into());
     }
@@ -80,15 +131,45 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
         ))
         .into());
     }
-    let manifest = load_scenes(&args.scenes, args.tiles, &output)?;
-    let arbor = std::env::current_exe().context("finding the arbor executable")?;
-    let parts = parts_dir(&output);
-    let previous = std::fs::read_to_string(Manifest::path(&output))
+    // The farm creates the folders it needs (the parts folder goes beside
+    // the output).
+    crate::output::check_creatable(&output, sequence, "-o")?;
+    crate::output::check_creatable(&parts_dir(&output), true, "the parts folder")?;
+    Ok(output)
+}
+
+/// What is left to do for a manifest, given the parts on disk and the
+/// queue.
+struct Plan {
+    /// Task indices (scene x tiles + tile) to submit.
+    todo: Vec<u32>,
+    /// Tiles done and in all.
+    done: usize,
+    total: usize,
+    /// Parts on disk that belong to another scene or cut.
+    stale: usize,
+    /// Task indices of earlier submissions still queued or running.
+    active: HashSet<u32>,
+    /// Their queue entries (the new merge waits for them too).
+    active_tasks: Vec<super::QueueEntry>,
+    /// Merge jobs of earlier submissions still queued.
+    old_merges: HashSet<String>,
+    /// Whether every picture exists.
+    pictures_done: bool,
+    /// This cluster's `MaxArraySize`, if it says.
+    max_array_size: Option<u32>,
+}
+
+/// Reads the previous manifest, the recorded jobs and the queue, and the
+/// state of every part.
+fn plan(manifest: &Manifest) -> anyhow::Result<Plan> {
+    let output = &manifest.output;
+    let previous = std::fs::read_to_string(Manifest::path(output))
         .ok()
         .and_then(|t| Manifest::parse(&t));
 
     // What the queue still holds from earlier submissions for this output.
-    let jobs = recorded_jobs(&output);
+    let jobs = recorded_jobs(output);
     let queue = squeue().unwrap_or_default();
     let in_queue = |kind: &str| -> Vec<super::QueueEntry> {
         queue
@@ -139,134 +220,166 @@ pub fn run(args: SlurmArgs) -> anyhow::Result<()> {
             }
         }
     }
-    let total = manifest.scenes.len() * n as usize;
-    let pictures_done = (0..manifest.scenes.len()).all(|s| manifest.picture(s).exists());
-    if done == total && pictures_done && active.is_empty() {
-        println!(
-            "{}: complete ({total} tiles done, merged); nothing to submit",
-            output.display()
-        );
-        return Ok(());
-    }
-
     // Slurm refuses array task ids at or above MaxArraySize (with a terse
-    // "Invalid job array specification"): more tasks go in several arrays,
-    // each shifted by an offset that its script adds back.
-    let max = max_array_size();
-    if max == Some(0) {
+    // "Invalid job array specification").
+    let max_array_size = max_array_size();
+    if max_array_size == Some(0) {
         return Err(InputError(format!(
             "{}: this cluster's MaxArraySize is 0: job arrays are disabled, and the render tasks need one",
             output.display()
         ))
         .into());
     }
-    let batches: Vec<(PathBuf, String, u32, Vec<u32>)> = array_batches(&todo, max)
-        .into_iter()
-        .map(|(offset, ids)| {
-            let name = match offset {
-                0 => "render.sbatch".to_string(),
-                o => format!("render-{o}.sbatch"),
-            };
-            let script = render_script(&manifest, &args, &arbor, offset, &ids);
-            (parts.join(name), script, offset, ids)
-        })
-        .collect();
-    let merge_script = merge_script(&manifest, &args, &arbor);
-    if args.dry_run {
-        for (path, script, _, _) in &batches {
-            println!("# {}", path.display());
-            println!("{script}");
-        }
-        println!("# {}", parts.join("merge.sbatch").display());
-        println!("{merge_script}");
-        println!(
-            "# dry run: would submit {} render task(s) (array {}{}), {done} of {total} tiles done, {} queued or running; then the merge job",
-            todo.len(),
-            if todo.is_empty() { "-".into() } else { index_list(&todo) },
-            if batches.len() > 1 {
-                format!(
-                    "; {} array jobs, as MaxArraySize is {}",
-                    batches.len(),
-                    max.unwrap_or_default()
-                )
-            } else {
-                String::new()
-            },
-            active.len()
-        );
-        return Ok(());
-    }
+    Ok(Plan {
+        todo,
+        done,
+        total: manifest.scenes.len() * n as usize,
+        stale,
+        active,
+        active_tasks,
+        old_merges,
+        pictures_done: (0..manifest.scenes.len()).all(|s| manifest.picture(s).exists()),
+        max_array_size,
+    })
+}
 
-    std::fs::create_dir_all(parts.join("logs"))
-        .with_context(|| format!("creating {}", parts.display()))?;
-    for (_, stem, _) in &manifest.scenes {
-        std::fs::create_dir_all(parts.join(stem))
-            .with_context(|| format!("creating {}", parts.display()))?;
-    }
-    if manifest.is_sequence() {
-        std::fs::create_dir_all(&output)
-            .with_context(|| format!("creating {}", output.display()))?;
-    }
-    write_text(&Manifest::path(&output), &manifest.to_text())?;
-    let submitted_at = SystemTime::now();
+/// The job scripts of a submission: one render array per window of
+/// `MaxArraySize` task indices (each shifted by an offset that its script
+/// adds back), and the merge.
+struct Scripts {
+    /// Script path, text, offset and array task ids.
+    renders: Vec<(PathBuf, String, u32, Vec<u32>)>,
+    merge: (PathBuf, String),
+}
 
+impl Scripts {
+    fn new(m: &Manifest, args: &SlurmArgs, arbor: &Path, plan: &Plan) -> Scripts {
+        let parts = parts_dir(&m.output);
+        let renders = array_batches(&plan.todo, plan.max_array_size)
+            .into_iter()
+            .map(|(offset, ids)| {
+                let name = match offset {
+                    0 => "render.sbatch".to_string(),
+                    o => format!("render-{o}.sbatch"),
+                };
+                let script = render_script(m, args, arbor, offset, &ids);
+                (parts.join(name), script, offset, ids)
+            })
+            .collect();
+        let merge = (parts.join("merge.sbatch"), merge_script(m, args, arbor));
+        Scripts { renders, merge }
+    }
+}
+
+/// `--dry-run`: the scripts and what would be submitted.
+fn print_dry_run(plan: &Plan, scripts: &Scripts) {
+    for (path, script, _, _) in &scripts.renders {
+        println!("# {}", path.display());
+        println!("{script}");
+    }
+    println!("# {}", scripts.merge.0.display());
+    println!("{}", scripts.merge.1);
+    let todo = &plan.todo;
+    println!(
+        "# dry run: would submit {} (array {}{}), {} of {} tiles done, {} queued or running; then the merge job",
+        crate::render::plural(todo.len() as u64, "render task", "render tasks"),
+        if todo.is_empty() { "-".into() } else { index_list(todo) },
+        if scripts.renders.len() > 1 {
+            format!(
+                "; {} array jobs, as MaxArraySize is {}",
+                scripts.renders.len(),
+                plan.max_array_size.unwrap_or_default()
+            )
+        } else {
+            String::new()
+        },
+        plan.done,
+        plan.total,
+        plan.active.len()
+    );
+}
+
+/// The parts folder with its logs and a folder per scene, and for a
+/// sequence the output folder.
+fn create_folders(m: &Manifest) -> anyhow::Result<()> {
+    let parts = parts_dir(&m.output);
+    let create = |dir: &Path| {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", dir.display()))
+    };
+    create(&parts.join("logs"))?;
+    for (_, stem, _) in &m.scenes {
+        create(&parts.join(stem))?;
+    }
+    if m.is_sequence() {
+        create(&m.output)?;
+    }
+    Ok(())
+}
+
+/// Submits the render arrays, then the merge job depending on them and on
+/// the earlier tasks still queued; returns the merge job's id.
+fn submit(m: &Manifest, plan: &Plan, scripts: &Scripts) -> anyhow::Result<String> {
+    let output = &m.output;
     // A merge from an earlier run is replaced: it may wait forever on a
     // cancelled task, or run before the tiles submitted now.
-    for id in &old_merges {
+    for id in &plan.old_merges {
         let _ = Command::new("scancel").arg(id).status();
     }
     let mut dependency: Vec<String> = Vec::new();
-    for e in &active_tasks {
+    for e in &plan.active_tasks {
         if let Some(t) = e.task {
             dependency.push(format!("{}_{t}", e.job));
         }
     }
-    for (k, (path, script, offset, ids)) in batches.iter().enumerate() {
+    for (k, (path, script, offset, ids)) in scripts.renders.iter().enumerate() {
         write_text(path, script)?;
         let id = sbatch(&[], path)?;
-        record_job(&output, "render", &id, *offset)?;
+        record_job(output, "render", &id, *offset)?;
         println!(
-            "submitted render job {id}: {} task(s), array {}{} ({done} of {total} tiles already done{})",
-            ids.len(),
+            "submitted render job {id}: {}, array {}{} ({} of {} tiles already done{})",
+            crate::render::plural(ids.len() as u64, "task", "tasks"),
             index_list(ids),
             if *offset > 0 {
                 format!(" + {offset}")
             } else {
                 String::new()
             },
-            if stale > 0 {
-                format!(", {stale} stale parts to redo")
+            plan.done,
+            plan.total,
+            if plan.stale > 0 {
+                format!(
+                    ", {} to redo",
+                    crate::render::plural(plan.stale as u64, "stale part", "stale parts")
+                )
             } else {
                 String::new()
             }
         );
         dependency.insert(k, id);
     }
-    if !active.is_empty() {
+    if !plan.active.is_empty() {
         println!(
-            "{} task(s) of earlier submissions still queued or running: not resubmitted",
-            active.len()
+            "{} of earlier submissions still queued or running: not resubmitted",
+            crate::render::plural(plan.active.len() as u64, "task", "tasks")
         );
     }
-    let path = parts.join("merge.sbatch");
-    write_text(&path, &merge_script)?;
+    let (path, script) = &scripts.merge;
+    write_text(path, script)?;
     let dep_arg = format!("--dependency=afterok:{}", dependency.join(":"));
     let extra: Vec<&str> = if dependency.is_empty() {
         vec![]
     } else {
         vec![dep_arg.as_str()]
     };
-    let merge_id = sbatch(&extra, &path)?;
-    record_job(&output, "merge", &merge_id, 0)?;
+    let merge_id = sbatch(&extra, path)?;
+    record_job(output, "merge", &merge_id, 0)?;
     println!(
         "submitted merge job {merge_id}; parts in {}; progress: arbor farm status {}",
-        parts.display(),
+        parts_dir(output).display(),
         output.display()
     );
-    if args.wait {
-        wait_for_merge(&manifest, &merge_id, submitted_at)?;
-    }
-    Ok(())
+    Ok(merge_id)
 }
 
 /// Loads every scene (checking it, and that it has at least `tiles` rows)
@@ -279,7 +392,7 @@ fn load_scenes(scenes: &[PathBuf], tiles: u32, output: &Path) -> anyhow::Result<
             .canonicalize()
             .map_err(|e| InputError(format!("{}: cannot read scene file: {e}", path.display())))?;
         // The same loader as `arbor render`, so the hash is the tasks' own.
-        let scene = crate::render::load_scene_or_model(&abs)?.scene;
+        let scene = crate::render::load_scene_or_model(&abs, &Default::default())?.scene;
         if tiles > scene.height {
             return Err(InputError(format!(
                 "{}: --tiles {tiles}: the image has {} rows; at most {} tiles",
@@ -331,13 +444,45 @@ fn q(s: impl AsRef<std::ffi::OsStr>) -> String {
     format!("'{}'", s.as_ref().to_string_lossy().replace('\'', r"'\''"))
 }
 
+/// The `#SBATCH` lines every job gets: partition, time, account, QOS,
+/// memory, generic resources, constraint and the `--sbatch-arg`s.
 fn common_options(s: &mut String, args: &SlurmArgs) {
-    if let Some(p) = &args.partition {
-        let _ = writeln!(s, "#SBATCH --partition={p}");
+    let named = [
+        ("partition", &args.partition),
+        ("time", &args.time),
+        ("account", &args.account),
+        ("qos", &args.qos),
+        ("mem", &args.mem),
+        ("gres", &args.gres),
+        ("constraint", &args.constraint),
+    ];
+    for (name, value) in named {
+        if let Some(v) = value {
+            let _ = writeln!(s, "#SBATCH --{name}={v}");
+        }
     }
-    if let Some(t) = &args.time {
-        let _ = writeln!(s, "#SBATCH --time={t}");
+    for arg in &args.sbatch_args {
+        let _ = writeln!(s, "#SBATCH {arg}");
     }
+}
+
+/// A value for an `#SBATCH` line (for clap): one line, not empty.
+fn parse_option_value(text: &str) -> Result<String, String> {
+    if text.trim().is_empty() || text.contains(['\n', '\r']) {
+        return Err(format!("`{text}`: expected a value on one line"));
+    }
+    Ok(text.to_string())
+}
+
+/// An `--sbatch-arg` (for clap): one sbatch option on one line.
+fn parse_sbatch_arg(text: &str) -> Result<String, String> {
+    let text = parse_option_value(text)?;
+    if !text.starts_with('-') {
+        return Err(format!(
+            "`{text}`: expected an sbatch option, e.g. --sbatch-arg=--mail-type=END"
+        ));
+    }
+    Ok(text)
 }
 
 /// The array job: task `i` renders tile `i mod N` of scene `i div N`.
@@ -400,11 +545,6 @@ fn merge_script(m: &Manifest, args: &SlurmArgs, arbor: &Path) -> String {
     }
     let _ = writeln!(s, "exit $status");
     s
-}
-
-fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
-    arbor::film::atomic_write(path, |f| std::io::Write::write_all(f, text.as_bytes()))
-        .map_err(anyhow::Error::from)
 }
 
 /// Appends `KIND ID` (and ` +OFFSET` for a shifted render array) to

@@ -150,6 +150,20 @@ pub fn render_region_with<S: RayStats>(
     progress: &(dyn Fn(u64) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Film, S), Cancelled> {
+    render_region_observed(scene, tracer, region, progress, &|_, _| {}, cancel)
+}
+
+/// [`render_region_with`], also handing each finished tile and its pixels
+/// (row by row, linear radiance) to `on_tile` as soon as it is done: a
+/// caller can show the picture so far. The image never depends on it.
+pub fn render_region_observed<S: RayStats>(
+    scene: &Scene,
+    tracer: &Tracer,
+    region: Region,
+    progress: &(dyn Fn(u64) + Sync),
+    on_tile: &(dyn Fn(Region, &[DVec3]) + Sync),
+    cancel: &AtomicBool,
+) -> Result<(Film, S), Cancelled> {
     let camera = scene.camera.prepare();
     let integrator = Integrator::new(scene, tracer);
     let all = tiles(scene.width, scene.height);
@@ -185,6 +199,7 @@ pub fn render_region_with<S: RayStats>(
                     ));
                 }
             }
+            on_tile(tile, &pixels);
             progress(tile.area());
             Some((tile, pixels, stats))
         })
