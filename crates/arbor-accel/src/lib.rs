@@ -31,6 +31,7 @@ mod counters;
 mod grid;
 mod kdtree;
 mod list;
+mod mesh;
 mod obb;
 mod primitives;
 mod ray;
@@ -41,20 +42,19 @@ mod util;
 
 pub use aabb::{widen_exit, Aabb, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
-pub use bvh::{
-    one_octant, Bvh, BvhBuilder, BvhNode, BvhParams, MeshHit, TriangleBvh, WideBvh, PACKET,
-};
+pub use bvh::{one_octant, Bvh, BvhBuilder, BvhNode, BvhParams, TriangleBvh, WideBvh, PACKET};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
 pub use kdtree::{KdParams, KdTree};
 pub use list::List;
+pub use mesh::{AllHits, ClosestPoint, MeshAccel, MeshError, MeshHit, INSIDE_DIRECTION};
 pub use obb::Obb;
 pub use primitives::Primitives;
 pub use ray::Ray;
 pub use sphere::BoundingSphere;
 pub use triangle::{
-    clip_triangle_bounds, intersect_triangle, intersect_triangle_sheared, is_degenerate, RayShear,
-    TriangleHit, TriangleMesh,
+    clip_triangle_bounds, intersect_triangle, intersect_triangle_owned, intersect_triangle_sheared,
+    is_degenerate, RayShear, TriangleHit, TriangleMesh,
 };
 
 /// The vector type of the public API (re-exported so users need not depend on glam).

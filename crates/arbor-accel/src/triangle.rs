@@ -105,6 +105,43 @@ pub fn intersect_triangle_sheared(
     p1: Vec3,
     p2: Vec3,
 ) -> Option<TriangleHit> {
+    intersect::<false>(ray, s, p0, p1, p2)
+}
+
+/// [`intersect_triangle_sheared`] with each crossing of a surface owned by
+/// exactly one triangle: where the ray passes exactly through an edge or a
+/// vertex (an edge function is exactly zero), the triangle reports the hit
+/// only if it contains the crossing point pushed an infinitesimal step in a
+/// fixed direction of the ray's sheared plane (`(epsilon, 1)`: "up", ties
+/// broken "right", as rasterisers' top-left rule). The rule depends only on
+/// the edge's two sheared vertices, which every triangle sharing the edge
+/// computes alike, so of the two triangles at an edge the ray crosses
+/// exactly one reports it, and at a silhouette edge both or neither; around
+/// a vertex exactly one triangle of a fan the ray passes through. Counting
+/// these hits along a ray therefore counts crossings: even for a ray
+/// through a closed, consistently oriented mesh (the basis of
+/// [`crate::MeshAccel::contains`]). Everything else is the plain test.
+#[inline]
+pub fn intersect_triangle_owned(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+) -> Option<TriangleHit> {
+    intersect::<true>(ray, s, p0, p1, p2)
+}
+
+/// The watertight test; `OWNED` applies the ownership rule of
+/// [`intersect_triangle_owned`] to exactly zero edge functions.
+#[inline(always)]
+fn intersect<const OWNED: bool>(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+) -> Option<TriangleHit> {
     let a = p0 - ray.origin;
     let b = p1 - ray.origin;
     let c = p2 - ray.origin;
@@ -145,7 +182,7 @@ pub fn intersect_triangle_sheared(
         }
         return hit_from_certain_edges(ray, s, p0, p1, p2, [u, v, w], scale);
     } else {
-        edge_functions_f64(ray, s, p0, p1, p2)?
+        edge_functions_f64::<OWNED>(ray, s, p0, p1, p2)?
     };
     hit_from_weights(ray, s, p0, p1, p2, || (u, v, w))
 }
@@ -463,9 +500,10 @@ fn hit_from_weights(
 
 /// The normalised edge functions (barycentric weights of p0, p1, p2)
 /// computed in `f64` from the `f32` inputs, or `None` on a miss. Used when
-/// `f32` cannot decide the signs.
+/// `f32` cannot decide the signs (so the only place an edge function can be
+/// exactly zero, where `OWNED` applies the ownership rule).
 #[cold]
-fn edge_functions_f64(
+fn edge_functions_f64<const OWNED: bool>(
     ray: &Ray,
     s: &RayShear,
     p0: Vec3,
@@ -489,11 +527,43 @@ fn edge_functions_f64(
     if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
         return None;
     }
+    if OWNED && (u == 0.0 || v == 0.0 || w == 0.0) {
+        // Each edge function's sign at the pushed point: its own where
+        // nonzero, else the edge's (edges b->c, c->a, a->b, as u, v, w).
+        let signs = [
+            pushed_sign(u, (cx - bx, cy - by)),
+            pushed_sign(v, (ax - cx, ay - cy)),
+            pushed_sign(w, (bx - ax, by - ay)),
+        ];
+        if !(signs == [1; 3] || signs == [-1; 3]) {
+            return None;
+        }
+    }
     let det = u + v + w;
     if det == 0.0 || !det.is_finite() {
         return None;
     }
     Some((u / det, v / det, w / det))
+}
+
+/// The sign of an edge function `e` at the test point pushed by
+/// `epsilon (delta_x, delta_y) = epsilon (tiny, 1)`: `e` itself when nonzero,
+/// else the first-order term `cross(delta, edge)`, with `edge` the directed
+/// edge `q - p` in the sheared plane (the edge function at point `x` is
+/// `cross(q - x, p - x) = e + cross(x, q - p)`). `0` for an edge of zero
+/// length, which owns nothing. Both triangles of a shared edge see the edge
+/// reversed, exactly (`fl(a - b) = -fl(b - a)`), so they get opposite signs.
+#[inline(always)]
+fn pushed_sign(e: f64, (ex, ey): (f64, f64)) -> i8 {
+    let first_order = if ex != 0.0 { -ex } else { ey };
+    let x = if e != 0.0 { e } else { first_order };
+    if x > 0.0 {
+        1
+    } else if x < 0.0 {
+        -1
+    } else {
+        0
+    }
 }
 
 /// Whether the triangle has zero area (coincident or collinear vertices), as

@@ -24,8 +24,7 @@ use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
 use arbor::scene::Scene;
 use arbor::tracer::{SplitCounters, Tracer};
 use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, AccelStats, Accelerator, NoCounters, Ray,
-    RayCounts, RayShear, TriangleMesh, Vec3,
+    AccelKind, AccelStats, Accelerator, MeshAccel, NoCounters, Ray, RayCounts, Vec3,
 };
 use clap::Args;
 use glam::DVec3;
@@ -211,53 +210,22 @@ trait Subject: Sync {
     fn primary_rays(&self, size: u32) -> Vec<Ray64>;
 }
 
-/// A triangle mesh, traced in `f32` as `arbor trace` traces it.
+/// A triangle mesh, traced exactly as `arbor trace` traces it (the same
+/// [`MeshAccel`] queries).
 struct MeshSubject {
-    mesh: TriangleMesh,
-    tris: Vec<[Vec3; 3]>,
-}
-
-impl MeshSubject {
-    fn new(mesh: TriangleMesh) -> Self {
-        let tris = (0..mesh.triangles.len())
-            .map(|i| mesh.triangle(i))
-            .collect();
-        MeshSubject { mesh, tris }
-    }
-
-    /// Triangle `prim`; a degenerate answer beats a panic for a bad index.
-    #[inline(always)]
-    fn tri(&self, prim: u32) -> [Vec3; 3] {
-        self.tris
-            .get(prim as usize)
-            .copied()
-            .unwrap_or([Vec3::NAN; 3])
-    }
-
-    fn nearest<C: SplitCounters>(&self, accel: &Accel, r: &Ray, c: &mut C) -> Option<(f32, u32)> {
-        let shear = RayShear::new(r);
-        let mut best: Option<(f32, u32)> = None;
-        accel.closest(r, c, |prim, ray| {
-            let [a, b, cc] = self.tri(prim);
-            let hit = intersect_triangle_sheared(ray, &shear, a, b, cc)?;
-            if best.is_none_or(|(t, _)| hit.t < t) {
-                best = Some((hit.t, prim));
-            }
-            Some(hit.t)
-        });
-        best
-    }
+    vertices: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
 }
 
 impl Subject for MeshSubject {
-    type Built = Accel;
+    type Built = MeshAccel;
     type Ray = Ray;
 
     fn primitives(&self) -> usize {
-        self.tris.len()
+        self.triangles.len()
     }
 
-    fn stats(built: &Accel) -> AccelStats {
+    fn stats(built: &MeshAccel) -> AccelStats {
         built.stats()
     }
 
@@ -275,28 +243,24 @@ impl Subject for MeshSubject {
     }
 
     #[inline]
-    fn closest<C: SplitCounters>(&self, b: &Accel, r: &Ray, c: &mut C) -> Option<f64> {
-        self.nearest(b, r, c).map(|(t, _)| t as f64)
+    fn closest<C: SplitCounters>(&self, b: &MeshAccel, r: &Ray, c: &mut C) -> Option<f64> {
+        b.closest_counted(r, c).map(|h| f64::from(h.hit.t))
     }
 
     #[inline]
-    fn occluded<C: SplitCounters>(&self, b: &Accel, r: &Ray, c: &mut C) -> bool {
-        let shear = RayShear::new(r);
-        b.occluded(r, c, |prim, ray| {
-            let [a, bb, cc] = self.tri(prim);
-            intersect_triangle_sheared(ray, &shear, a, bb, cc).is_some()
-        })
+    fn occluded<C: SplitCounters>(&self, b: &MeshAccel, r: &Ray, c: &mut C) -> bool {
+        b.occluded_counted(r, c)
     }
 
-    fn surface(&self, b: &Accel, r: &Ray64) -> Option<(f64, DVec3)> {
-        let (t, prim) = self.nearest(b, &Self::ray(r), &mut NoCounters)?;
-        let [a, bb, cc] = self.tri(prim);
+    fn surface(&self, b: &MeshAccel, r: &Ray64) -> Option<(f64, DVec3)> {
+        let hit = b.closest(&Self::ray(r))?;
+        let [a, bb, cc] = b.triangle(hit.prim);
         let n = (bb - a).cross(cc - a).as_dvec3();
-        Some((t as f64, n))
+        Some((f64::from(hit.hit.t), n))
     }
 
     fn primary_rays(&self, size: u32) -> Vec<Ray64> {
-        let (lo, hi) = self.tris.iter().flatten().fold(
+        let (lo, hi) = self.vertices.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), p| (lo.min(p.as_dvec3()), hi.max(p.as_dvec3())),
         );
@@ -618,10 +582,10 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
     if mesh.triangles.is_empty() {
         return Err(InputError(format!("{}: the mesh has no triangles", path.display())).into());
     }
-    Ok(Input::Mesh(MeshSubject::new(TriangleMesh::new(
-        mesh.positions,
-        mesh.triangles,
-    ))))
+    Ok(Input::Mesh(MeshSubject {
+        vertices: mesh.positions,
+        triangles: mesh.triangles,
+    }))
 }
 
 /// Runs `arbor bench`.
@@ -637,9 +601,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     let report = pool.install(|| -> anyhow::Result<Report> {
         let results = match &input {
             Input::Mesh(m) => bench_with(m, &accels, &kinds, &args, |k| {
+                let (vertices, triangles) = (m.vertices.clone(), m.triangles.clone());
                 let start = Instant::now();
-                let accel = Accel::build(k, &m.mesh);
-                Ok((accel, ms_since(start)))
+                let mesh = MeshAccel::build(vertices, triangles, k)
+                    .map_err(|e| InputError(format!("{}: {e}", args.input.display())))?;
+                Ok((mesh, ms_since(start)))
             })?,
             // Flattening is the same for every structure: only the tracer's
             // build is timed.

@@ -6,11 +6,14 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod accel_arg;
+mod batch;
 mod bench;
 mod compare;
 mod farm;
 mod info;
 mod merge;
+mod points;
 mod render;
 mod trace;
 
@@ -30,8 +33,14 @@ enum Command {
     Info(info::InfoArgs),
     /// Compare two images: PSNR, mean/max error, fraction within 2/255.
     Compare(compare::CompareArgs),
-    /// Trace a batch of rays against a triangle mesh (the ray/hit file interface).
+    /// Trace a batch of rays against a triangle mesh (the ray/hit file
+    /// interface): closest hits, occlusion, every hit, hit counts.
     Trace(trace::TraceArgs),
+    /// Inside or outside a closed triangle mesh, for a batch of points.
+    Inside(points::InsideArgs),
+    /// The closest point of a triangle mesh (and the distance, signed with
+    /// --signed), for a batch of points.
+    Nearest(points::NearestArgs),
     /// Benchmark the acceleration structures on a mesh or scene: build time,
     /// size, shape, Mrays/s and nodes and tests per ray.
     Bench(bench::BenchArgs),
@@ -73,6 +82,8 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare::run(args),
         Command::Info(args) => info::run(args),
         Command::Trace(args) => trace::run(args),
+        Command::Inside(args) => points::run_inside(args),
+        Command::Nearest(args) => points::run_nearest(args),
         Command::Bench(args) => bench::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Farm(args) => farm::run(args),

@@ -14,8 +14,9 @@ mod topdown;
 mod triangles;
 mod wide;
 
+pub(crate) use packet::looks_coherent;
 pub use packet::{one_octant, PACKET};
-pub use triangles::{MeshHit, TriangleBvh};
+pub use triangles::TriangleBvh;
 pub use wide::WideBvh;
 
 use std::mem::MaybeUninit;

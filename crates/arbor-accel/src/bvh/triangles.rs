@@ -24,18 +24,9 @@ use crate::triangle_lanes::pair;
 use crate::triangle_lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
 use crate::util::prefetch;
 use crate::{
-    intersect_triangle_sheared, AccelStats, Accelerator, Counters, Ray, RayShear, TriangleHit,
-    TriangleMesh,
+    intersect_triangle_sheared, AccelStats, Accelerator, Counters, MeshHit, Ray, RayShear,
+    TriangleHit, TriangleMesh,
 };
-
-/// The closest hit of a ray on a mesh: which triangle, and where on it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MeshHit {
-    /// Index of the triangle in the mesh.
-    pub prim: u32,
-    /// Distance and barycentrics.
-    pub hit: TriangleHit,
-}
 
 /// Leaves packed by one parallel task: a leaf is one or two packets, too
 /// little work to hand to a thread alone.
@@ -284,6 +275,33 @@ impl TriangleBvh {
             },
             |first| prefetch(&self.packets[first]),
         )
+    }
+
+    /// Offers `f` the id of every triangle in every leaf the ray enters over
+    /// its whole interval (which is never shrunk), and of every unbounded
+    /// triangle; each once.
+    pub(crate) fn for_each_candidate<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        mut f: impl FnMut(u32),
+    ) {
+        for &(prim, _) in &self.unbounded {
+            counters.test();
+            f(prim);
+        }
+        self.bvh.closest_leaves(
+            *ray,
+            counters,
+            |first, count, _, counters| {
+                let packets = &self.packets[first..first + count.div_ceil(LANES)];
+                for id in packets.iter().flat_map(|p| p.ids).take(count) {
+                    counters.test();
+                    f(id);
+                }
+            },
+            |first| prefetch(&self.packets[first]),
+        );
     }
 
     /// Runs the leaf `(first, count)`'s triangles through the watertight

@@ -1,0 +1,136 @@
+//! Every crossing of the surface along a ray, and how many there are.
+//!
+//! A ray through an edge or vertex shared by several triangles meets each
+//! of them in the plain watertight test; here each crossing is reported by
+//! exactly one triangle ([`intersect_triangle_owned`]'s ownership rule), so
+//! counts are crossing counts: even through a closed mesh, 0 or 2 at a
+//! silhouette edge, never 1.
+
+use rayon::prelude::*;
+
+use super::{MeshAccel, MeshHit, PER_TASK};
+use crate::{intersect_triangle_owned, Counters, NoCounters, Ray, RayShear};
+
+/// Every hit of a batch of rays, in ray order: ray `i`'s hits are the
+/// `counts[i]` entries of `hits` after those of the rays before it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AllHits {
+    /// Hits per ray.
+    pub counts: Vec<u32>,
+    /// The hits, ray after ray, each ray's sorted as
+    /// [`MeshAccel::all_hits`] sorts them.
+    pub hits: Vec<MeshHit>,
+}
+
+impl AllHits {
+    /// The hits of ray `i`, with `offsets` from [`AllHits::offsets`].
+    pub fn of(&self, offsets: &[usize], i: usize) -> &[MeshHit] {
+        &self.hits[offsets[i]..offsets[i + 1]]
+    }
+
+    /// Where each ray's hits start in `hits` (one more entry than rays, the
+    /// last being `hits.len()`).
+    pub fn offsets(&self) -> Vec<usize> {
+        let mut offsets = Vec::with_capacity(self.counts.len() + 1);
+        offsets.push(0);
+        for &c in &self.counts {
+            offsets.push(offsets[offsets.len() - 1] + c as usize);
+        }
+        offsets
+    }
+}
+
+impl MeshAccel {
+    /// Every crossing of the surface within `[ray.tmin, ray.tmax]`, sorted
+    /// by distance, ties by triangle index; each crossing once (see the
+    /// module documentation).
+    pub fn all_hits(&self, ray: &Ray) -> Vec<MeshHit> {
+        let mut hits = Vec::new();
+        self.all_hits_into(ray, &mut NoCounters, &mut hits);
+        hits
+    }
+
+    /// [`MeshAccel::all_hits`] appended to `out`, counting nodes and tests
+    /// into `counters`.
+    pub fn all_hits_into<C: Counters>(&self, ray: &Ray, counters: &mut C, out: &mut Vec<MeshHit>) {
+        let start = out.len();
+        let shear = RayShear::new(ray);
+        self.for_each_candidate(ray, counters, |prim| {
+            let [a, b, c] = self.triangle(prim);
+            if let Some(hit) = intersect_triangle_owned(ray, &shear, a, b, c) {
+                out.push(MeshHit { prim, hit });
+            }
+        });
+        let mine = &mut out[start..];
+        mine.sort_unstable_by(|x, y| x.hit.t.total_cmp(&y.hit.t).then(x.prim.cmp(&y.prim)));
+        if self.offers_repeats() {
+            // A triangle offered again gives the same answer (the test sees
+            // the same ray), so its copies sit side by side after sorting.
+            let mut kept = start;
+            for i in start..out.len() {
+                if kept == start || out[kept - 1].prim != out[i].prim {
+                    out[kept] = out[i];
+                    kept += 1;
+                }
+            }
+            out.truncate(kept);
+        }
+    }
+
+    /// How many crossings [`MeshAccel::all_hits`] finds, without storing
+    /// them (for the BVHs; spatial subdivision needs the list to drop
+    /// repeated offers).
+    pub fn count(&self, ray: &Ray) -> u32 {
+        self.count_counted(ray, &mut NoCounters)
+    }
+
+    /// [`MeshAccel::count`], counting nodes and tests into `counters`.
+    pub fn count_counted<C: Counters>(&self, ray: &Ray, counters: &mut C) -> u32 {
+        if self.offers_repeats() {
+            let mut hits = Vec::new();
+            self.all_hits_into(ray, counters, &mut hits);
+            return hits.len() as u32;
+        }
+        let shear = RayShear::new(ray);
+        let mut n = 0;
+        self.for_each_candidate(ray, counters, |prim| {
+            let [a, b, c] = self.triangle(prim);
+            n += u32::from(intersect_triangle_owned(ray, &shear, a, b, c).is_some());
+        });
+        n
+    }
+
+    /// [`MeshAccel::all_hits`] for every ray, in parallel.
+    pub fn all_hits_batch(&self, rays: &[Ray]) -> AllHits {
+        let per_chunk: Vec<(Vec<u32>, Vec<MeshHit>)> = rays
+            .par_chunks(PER_TASK)
+            .map(|chunk| {
+                let mut counts = Vec::with_capacity(chunk.len());
+                let mut hits = Vec::new();
+                for ray in chunk {
+                    let before = hits.len();
+                    self.all_hits_into(ray, &mut NoCounters, &mut hits);
+                    counts.push((hits.len() - before) as u32);
+                }
+                (counts, hits)
+            })
+            .collect();
+        let mut all = AllHits {
+            counts: Vec::with_capacity(rays.len()),
+            hits: Vec::with_capacity(per_chunk.iter().map(|(_, h)| h.len()).sum()),
+        };
+        for (counts, hits) in per_chunk {
+            all.counts.extend(counts);
+            all.hits.extend(hits);
+        }
+        all
+    }
+
+    /// [`MeshAccel::count`] for every ray, in parallel.
+    pub fn count_batch(&self, rays: &[Ray]) -> Vec<u32> {
+        rays.par_iter()
+            .with_min_len(PER_TASK)
+            .map(|ray| self.count(ray))
+            .collect()
+    }
+}

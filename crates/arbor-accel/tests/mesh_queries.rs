@@ -1,0 +1,459 @@
+//! `MeshAccel`'s queries against brute force, for every structure, and the
+//! crossing rule on closed meshes: counts through shared edges and vertices
+//! even, inside/outside and signed distance against analytic shapes.
+
+use arbor_accel::{
+    intersect_triangle_owned, intersect_triangle_sheared, AccelKind, MeshAccel, MeshHit, Ray,
+    RayShear, Vec3,
+};
+use glam::DVec3;
+use proptest::prelude::*;
+
+/// Coordinates on a coarse lattice (shared vertices, flat and axis-aligned
+/// triangles, rays in face planes and through edges) or continuous.
+fn coord() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        3 => -4.0f32..4.0,
+        3 => (-3i32..=3).prop_map(|i| i as f32),
+        1 => (-6i32..=6).prop_map(|i| i as f32 * 0.5),
+    ]
+}
+
+fn point() -> impl Strategy<Value = Vec3> {
+    (coord(), coord(), coord()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+}
+
+/// A random mesh: vertices from a small pool (so triangles share them).
+fn mesh() -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> {
+    prop::collection::vec(point(), 3..24).prop_flat_map(|vertices| {
+        let n = vertices.len() as u32;
+        let tri = (0..n, 0..n, 0..n).prop_map(|(a, b, c)| [a, b, c]);
+        (Just(vertices), prop::collection::vec(tri, 1..40))
+    })
+}
+
+/// Rays: free, or aimed at a vertex or an edge midpoint of the mesh.
+fn rays(vertices: &[Vec3], specs: &[(Vec3, Vec3, u8, usize, usize)]) -> Vec<Ray> {
+    specs
+        .iter()
+        .map(|&(origin, dir, kind, i, j)| {
+            let (a, b) = (vertices[i % vertices.len()], vertices[j % vertices.len()]);
+            let dir = match kind % 3 {
+                0 => dir,
+                1 => a - origin,
+                _ => (a + b) * 0.5 - origin,
+            };
+            Ray::new(origin, dir, 0.0, f32::INFINITY)
+        })
+        .collect()
+}
+
+fn ray_specs() -> impl Strategy<Value = Vec<(Vec3, Vec3, u8, usize, usize)>> {
+    prop::collection::vec(
+        (
+            point(),
+            point(),
+            any::<u8>(),
+            any::<usize>(),
+            any::<usize>(),
+        ),
+        1..24,
+    )
+}
+
+/// Every owned hit, by testing every triangle: the reference.
+fn brute_all_hits(vertices: &[Vec3], triangles: &[[u32; 3]], ray: &Ray) -> Vec<MeshHit> {
+    let shear = RayShear::new(ray);
+    let mut hits: Vec<MeshHit> = triangles
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| {
+            let [a, b, c] = t.map(|k| vertices[k as usize]);
+            let hit = intersect_triangle_owned(ray, &shear, a, b, c)?;
+            Some(MeshHit {
+                prim: i as u32,
+                hit,
+            })
+        })
+        .collect();
+    hits.sort_by(|x, y| x.hit.t.total_cmp(&y.hit.t).then(x.prim.cmp(&y.prim)));
+    hits
+}
+
+/// The closest plain hit's distance, by testing every triangle.
+fn brute_closest_t(vertices: &[Vec3], triangles: &[[u32; 3]], ray: &Ray) -> Option<f32> {
+    let shear = RayShear::new(ray);
+    triangles
+        .iter()
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|k| vertices[k as usize]);
+            intersect_triangle_sheared(ray, &shear, a, b, c).map(|h| h.t)
+        })
+        .min_by(f32::total_cmp)
+}
+
+/// The f64 distance from `p` to triangle `abc`, by sampling nothing: the
+/// minimum over the face (when the projection falls inside) and the three
+/// edges, written independently of the library's region tests.
+fn brute_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
+    let (p, a, b, c) = (p.as_dvec3(), a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let segment = |s: DVec3, e: DVec3| {
+        let d = e - s;
+        let t = if d.length_squared() > 0.0 {
+            ((p - s).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p - (s + d * t)).length()
+    };
+    let mut best = segment(a, b).min(segment(b, c)).min(segment(c, a));
+    let n = (b - a).cross(c - a);
+    if n.length_squared() > 0.0 {
+        let q = p - n * ((p - a).dot(n) / n.length_squared());
+        let inside = [(a, b), (b, c), (c, a)]
+            .iter()
+            .all(|&(s, e)| (e - s).cross(q - s).dot(n) >= 0.0);
+        if inside {
+            best = best.min((p - q).length());
+        }
+    }
+    best
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 160, ..ProptestConfig::default() })]
+
+    /// Every structure reports exactly brute force's crossings (same
+    /// triangles, same distances and barycentrics, same order), the same
+    /// counts, and the closest hit at brute force's distance.
+    #[test]
+    fn ray_queries_equal_brute_force((vertices, triangles) in mesh(), specs in ray_specs()) {
+        let rays = rays(&vertices, &specs);
+        for &kind in AccelKind::ALL {
+            let mesh = MeshAccel::build(vertices.clone(), triangles.clone(), kind).unwrap();
+            let batch = mesh.all_hits_batch(&rays);
+            let offsets = batch.offsets();
+            for (i, ray) in rays.iter().enumerate() {
+                let want = brute_all_hits(&vertices, &triangles, ray);
+                prop_assert_eq!(&mesh.all_hits(ray), &want, "{} ray {:?}", kind, ray);
+                prop_assert_eq!(batch.of(&offsets, i), &want[..], "{} batch", kind);
+                prop_assert_eq!(mesh.count(ray) as usize, want.len(), "{} count", kind);
+                let t = mesh.closest(ray).map(|h| h.hit.t);
+                prop_assert_eq!(t, brute_closest_t(&vertices, &triangles, ray), "{} closest", kind);
+                prop_assert_eq!(mesh.occluded(ray), t.is_some(), "{} occluded", kind);
+            }
+            prop_assert_eq!(
+                mesh.count_batch(&rays),
+                rays.iter().map(|r| mesh.count(r)).collect::<Vec<_>>()
+            );
+        }
+    }
+
+    /// The closest point is at brute force's minimum distance (the same
+    /// `f64` value, rounded once), on the smallest-index triangle at that
+    /// distance, and really on that triangle.
+    #[test]
+    fn closest_point_equals_brute_force(
+        (vertices, triangles) in mesh(),
+        points in prop::collection::vec(point(), 1..16),
+        limit in prop_oneof![Just(f32::INFINITY), 0.0f32..3.0],
+    ) {
+        let mesh = MeshAccel::build(vertices.clone(), triangles.clone(), AccelKind::DEFAULT).unwrap();
+        let limits = vec![limit; points.len()];
+        let batch = mesh.closest_point_batch(&points, &limits);
+        for (p, got) in points.iter().zip(batch) {
+            prop_assert_eq!(got, mesh.closest_point(*p, limit));
+            let dists: Vec<f64> = triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|k| vertices[k as usize]);
+                    brute_distance(*p, a, b, c)
+                })
+                .collect();
+            let min = dists.iter().copied().fold(f64::INFINITY, f64::min);
+            match got {
+                None => prop_assert!(min > f64::from(limit) * (1.0 + 1e-9), "missed {min} within {limit}"),
+                Some(c) => {
+                    // Two independent f64 formulas: equal to about 1e-12.
+                    let tol = 1e-9 * (1.0 + min);
+                    prop_assert!((f64::from(c.distance) - min).abs() <= tol + f64::from(c.distance) * 1e-7,
+                        "distance {} against {}", c.distance, min);
+                    prop_assert!((dists[c.prim as usize] - min).abs() <= tol, "prim {} not nearest", c.prim);
+                    let [a, b, cc] = triangles[c.prim as usize].map(|k| vertices[k as usize]);
+                    let on = a * (1.0 - c.u - c.v) + b * c.u + cc * c.v;
+                    prop_assert!((on - c.point).length() <= 1e-4 * (1.0 + c.point.length()));
+                }
+            }
+        }
+    }
+}
+
+/// A closed, consistently oriented icosphere of radius 1 (`levels`
+/// subdivisions of the icosahedron).
+fn icosphere(levels: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let g = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        (-1.0, g, 0.0),
+        (1.0, g, 0.0),
+        (-1.0, -g, 0.0),
+        (1.0, -g, 0.0),
+        (0.0, -1.0, g),
+        (0.0, 1.0, g),
+        (0.0, -1.0, -g),
+        (0.0, 1.0, -g),
+        (g, 0.0, -1.0),
+        (g, 0.0, 1.0),
+        (-g, 0.0, -1.0),
+        (-g, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut t: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut midpoint = |a: u32, b: u32, v: &mut Vec<Vec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
+                v.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::new();
+        for [a, b, c] in t {
+            let ab = midpoint(a, b, &mut v);
+            let bc = midpoint(b, c, &mut v);
+            let ca = midpoint(c, a, &mut v);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        t = next;
+    }
+    (v, t)
+}
+
+/// The cube `[0, 1]^3` as twelve outward-facing triangles.
+fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let v = (0..8)
+        .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let t = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    (v, t)
+}
+
+/// Rays from outside through every vertex and every edge midpoint of a
+/// closed mesh, from many origins: every count is even, for every
+/// structure, and a ray that crosses the solid has at least two.
+fn assert_even_counts(vertices: &[Vec3], triangles: &[[u32; 3]], origins: &[Vec3]) {
+    let mut targets: Vec<Vec3> = vertices.to_vec();
+    for t in triangles {
+        for k in 0..3 {
+            targets.push((vertices[t[k] as usize] + vertices[t[(k + 1) % 3] as usize]) * 0.5);
+        }
+    }
+    let rays: Vec<Ray> = origins
+        .iter()
+        .flat_map(|&o| {
+            targets
+                .iter()
+                .map(move |&p| Ray::new(o, p - o, 0.0, f32::INFINITY))
+        })
+        .collect();
+    for &kind in AccelKind::ALL {
+        let mesh = MeshAccel::build(vertices.to_vec(), triangles.to_vec(), kind).unwrap();
+        assert_eq!(mesh.open_edges(), 0);
+        let mut odd = 0;
+        for (ray, n) in rays.iter().zip(mesh.count_batch(&rays)) {
+            odd += n % 2;
+            assert!(n % 2 == 0, "{kind}: {n} crossings for {ray:?}");
+        }
+        assert_eq!(odd, 0);
+    }
+}
+
+#[test]
+fn counts_through_shared_edges_and_vertices_are_even() {
+    let origins = [
+        Vec3::new(5.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 5.0),
+        Vec3::new(3.0, 4.0, -2.0),
+        Vec3::new(-2.5, 0.5, 1.0),
+        Vec3::new(1.0, -6.0, 3.0),
+    ];
+    let (v, t) = icosphere(2);
+    assert_even_counts(&v, &t, &origins);
+    let (v, t) = cube();
+    let cube_origins = [
+        Vec3::new(0.5, 0.5, 3.0),
+        Vec3::new(-1.0, -1.0, -1.0),
+        Vec3::new(2.0, 0.5, 0.5),
+        Vec3::new(0.0, 0.0, 4.0),
+        Vec3::new(3.0, 2.0, 1.0),
+    ];
+    assert_even_counts(&v, &t, &cube_origins);
+}
+
+/// A ray through a cube's edge crosses once into the solid... and out: 2.
+/// A ray that only touches a silhouette edge or vertex: 0 or 2, never 1.
+#[test]
+fn silhouette_touches_count_zero_or_two() {
+    let (v, t) = cube();
+    let through = [
+        // Along the diagonal plane through the vertical edge x = y = 0.
+        Ray::new(
+            Vec3::new(-1.0, -1.0, 0.5),
+            Vec3::new(1.0, 1.0, 0.0),
+            0.0,
+            f32::INFINITY,
+        ),
+        // Through two opposite vertices.
+        Ray::new(Vec3::splat(-1.0), Vec3::ONE, 0.0, f32::INFINITY),
+    ];
+    let touching = [
+        // Grazes the vertical edge x = y = 0 only.
+        Ray::new(
+            Vec3::new(-1.0, 1.0, 0.5),
+            Vec3::new(1.0, -1.0, 0.0),
+            0.0,
+            f32::INFINITY,
+        ),
+        // Grazes the vertex (0, 0, 0) only.
+        Ray::new(
+            Vec3::new(-1.0, 1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            0.0,
+            f32::INFINITY,
+        ),
+        Ray::new(
+            Vec3::new(-1.0, 1.0, -1.0),
+            Vec3::new(1.0, -1.0, 1.0),
+            0.0,
+            f32::INFINITY,
+        ),
+    ];
+    for &kind in AccelKind::ALL {
+        let mesh = MeshAccel::build(v.clone(), t.clone(), kind).unwrap();
+        for ray in &through {
+            assert_eq!(mesh.count(ray), 2, "{kind}: {ray:?}");
+        }
+        for ray in &touching {
+            let n = mesh.count(ray);
+            assert!(n == 0 || n == 2, "{kind}: {n} for {ray:?}");
+        }
+    }
+}
+
+/// Points on a grid against the unit sphere and the unit cube: inside as
+/// the analytic shape says (away from the surface, where the mesh and the
+/// shape differ), signed distance within the mesh's deviation.
+#[test]
+fn inside_and_signed_distance_match_analytic_shapes() {
+    let (v, t) = icosphere(3);
+    // The icosphere's flat faces lie inside the sphere by at most this.
+    let sag = 1.0 - 0.986;
+    let sphere = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
+    let (v, t) = cube();
+    let cube = MeshAccel::build(v, t, AccelKind::BvhSah).unwrap();
+    let mut points = Vec::new();
+    for i in 0..=20 {
+        for j in 0..=20 {
+            for k in 0..=20 {
+                points.push(Vec3::new(i as f32, j as f32, k as f32) * 0.15 - Vec3::splat(1.5));
+            }
+        }
+    }
+    let inside = sphere.contains_batch(&points);
+    let signed = sphere.signed_distance_batch(&points);
+    let mut checked = 0;
+    for ((p, inside), sd) in points.iter().zip(inside).zip(signed) {
+        let r = p.length();
+        let analytic = r - 1.0;
+        assert!(
+            (sd - analytic).abs() <= sag + 1e-5,
+            "{p}: {sd} against {analytic}"
+        );
+        assert_eq!(inside, sd < 0.0, "{p}");
+        if (r - 1.0).abs() > sag {
+            assert_eq!(inside, r < 1.0, "{p}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 8000);
+    for p in &points {
+        let q = *p + Vec3::splat(0.5);
+        let outside = (q - q.clamp(Vec3::ZERO, Vec3::ONE)).length();
+        let inside_depth = q.min(Vec3::ONE - q).min_element();
+        let analytic = if outside > 0.0 {
+            outside
+        } else {
+            -inside_depth
+        };
+        let sd = cube.signed_distance(q);
+        assert!(
+            (sd - analytic).abs() <= 1e-6,
+            "{q}: {sd} against {analytic}"
+        );
+        if analytic.abs() > 1e-6 {
+            assert_eq!(cube.contains(q), analytic < 0.0, "{q}");
+        }
+    }
+}
+
+#[test]
+fn open_meshes_report_their_open_edges() {
+    let (v, mut t) = cube();
+    t.pop();
+    let mesh = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
+    assert_eq!(mesh.open_edges(), 3);
+}
+
+#[test]
+fn indices_out_of_range_are_refused() {
+    let err =
+        MeshAccel::build(vec![Vec3::ZERO; 3], vec![[0, 1, 3]], AccelKind::DEFAULT).unwrap_err();
+    assert_eq!(
+        err.to_string(),
+        "triangle 0 names vertex 3, but the mesh has 3 vertices"
+    );
+}
+
+#[test]
+fn empty_meshes_answer_nothing() {
+    let mesh = MeshAccel::build(Vec::new(), Vec::new(), AccelKind::DEFAULT).unwrap();
+    let ray = Ray::new(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY);
+    assert_eq!(mesh.closest(&ray), None);
+    assert_eq!(mesh.count(&ray), 0);
+    assert!(!mesh.contains(Vec3::ZERO));
+    assert_eq!(mesh.closest_point(Vec3::ZERO, f32::INFINITY), None);
+    assert_eq!(mesh.signed_distance(Vec3::ZERO), f32::INFINITY);
+}

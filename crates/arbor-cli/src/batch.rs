@@ -1,0 +1,180 @@
+//! What the batch query commands (`trace`, `inside`, `nearest`) share: the
+//! mesh they load, the record files they read, the answer file they write
+//! atomically, and the timing of repeated runs.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use arbor::mesh::load_mesh_file;
+use arbor_accel::{AccelKind, MeshAccel};
+
+use crate::InputError;
+
+/// Loads `path` as a triangle mesh (polygons split as fans, triangles
+/// numbered in file order) and builds `kind` over it `repeat` times on the
+/// current pool; returns the last build and the fastest build's time in
+/// milliseconds (Embree's is timed the same way, its buffer copies
+/// included).
+pub fn load_and_build(
+    path: &Path,
+    kind: AccelKind,
+    repeat: usize,
+) -> anyhow::Result<(MeshAccel, f64)> {
+    let data = load_mesh_file(path).map_err(|e| InputError(e.to_string()))?;
+    let mut best = f64::INFINITY;
+    let mut built = None;
+    for _ in 0..repeat.max(1) {
+        let (positions, triangles) = (data.positions.clone(), data.triangles.clone());
+        let start = Instant::now();
+        let mesh = MeshAccel::build(positions, triangles, kind)
+            .map_err(|e| InputError(format!("{}: {e}", path.display())))?;
+        best = best.min(ms_since(start));
+        built = Some(mesh);
+    }
+    let mesh = built.context("internal error: no structure was built")?;
+    Ok((mesh, best))
+}
+
+/// Reads a file of fixed-size little-endian records with no header; `what`
+/// names them in errors ("a ray file holds 32-byte records (...)").
+pub fn read_records(path: &Path, size: usize, what: &str, layout: &str) -> anyhow::Result<Vec<u8>> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        InputError(format!(
+            "{}: cannot read the {what} file: {e}",
+            path.display()
+        ))
+    })?;
+    if bytes.len() % size != 0 {
+        return Err(InputError(format!(
+            "{}: a {what} file holds {size}-byte records ({layout}), but its length {} is not \
+             a multiple of {size}",
+            path.display(),
+            bytes.len()
+        ))
+        .into());
+    }
+    Ok(bytes)
+}
+
+/// The `i`-th little-endian `f32` of a record.
+pub fn f32_at(record: &[u8], i: usize) -> f32 {
+    let mut word = [0u8; 4];
+    word.copy_from_slice(&record[4 * i..4 * i + 4]);
+    f32::from_le_bytes(word)
+}
+
+/// Runs `pass` `repeat` times; returns the median (the upper one for an
+/// even count, as `embree_trace` takes it) and fastest time in milliseconds.
+pub fn timed(repeat: usize, mut pass: impl FnMut()) -> (f64, f64) {
+    let mut times: Vec<f64> = (0..repeat.max(1))
+        .map(|_| {
+            let start = Instant::now();
+            pass();
+            ms_since(start)
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], times[0])
+}
+
+/// Milliseconds since `start`.
+pub fn ms_since(start: Instant) -> f64 {
+    start.elapsed().as_secs_f64() * 1e3
+}
+
+/// `x` rounded to three decimals, for the JSON summaries (microseconds are
+/// all a millisecond timing can say).
+pub fn millis(x: f64) -> f64 {
+    (x * 1e3).round() / 1e3
+}
+
+/// Millions of queries per second at `ms` for `n` queries (0 for no time).
+pub fn mega_per_s(n: usize, ms: f64) -> f64 {
+    if ms > 0.0 {
+        millis(n as f64 / (ms * 1e3))
+    } else {
+        0.0
+    }
+}
+
+/// An output file written under a temporary name in the same folder and
+/// renamed into place when complete, so that a failure or interruption never
+/// leaves a partial file under the final name (a rename within one folder is
+/// atomic). The temporary file is removed if the output is dropped unfinished.
+pub struct AtomicOutput {
+    target: PathBuf,
+    temp: PathBuf,
+    file: Option<File>,
+}
+
+impl AtomicOutput {
+    /// Creates the temporary file at once, so an unwritable destination is
+    /// reported before any work is done, and removes it if the process is
+    /// interrupted (Ctrl-C ends the process without running destructors).
+    pub fn create(target: &Path) -> anyhow::Result<Self> {
+        if target.is_dir() {
+            return Err(InputError(format!(
+                "{}: is a directory; expected an output file name",
+                target.display()
+            ))
+            .into());
+        }
+        let name = target
+            .file_name()
+            .ok_or_else(|| {
+                InputError(format!(
+                    "{}: expected an output file name",
+                    target.display()
+                ))
+            })?
+            .to_string_lossy();
+        let temp = target.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+        let file = File::create(&temp).map_err(|e| {
+            InputError(format!(
+                "{}: cannot create the output file: {e}",
+                target.display()
+            ))
+        })?;
+        let interrupted = temp.clone();
+        let _ = ctrlc::set_handler(move || {
+            let _ = std::fs::remove_file(&interrupted);
+            std::process::exit(130);
+        });
+        Ok(AtomicOutput {
+            target: target.to_path_buf(),
+            temp,
+            file: Some(file),
+        })
+    }
+
+    /// Writes `bytes` and moves the file into place.
+    pub fn finish(mut self, bytes: &[u8]) -> anyhow::Result<()> {
+        let Some(file) = self.file.take() else {
+            anyhow::bail!("internal error: output already finished");
+        };
+        let mut w = BufWriter::new(file);
+        w.write_all(bytes)
+            .and_then(|()| w.flush())
+            .with_context(|| format!("cannot write {}", self.temp.display()))?;
+        drop(w);
+        std::fs::rename(&self.temp, &self.target).with_context(|| {
+            format!(
+                "cannot move {} to {}",
+                self.temp.display(),
+                self.target.display()
+            )
+        })?;
+        Ok(())
+    }
+}
+
+impl Drop for AtomicOutput {
+    fn drop(&mut self) {
+        // After a successful rename the temporary name no longer exists and
+        // this fails harmlessly.
+        let _ = std::fs::remove_file(&self.temp);
+    }
+}

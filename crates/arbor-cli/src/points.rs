@@ -1,0 +1,216 @@
+//! `arbor inside` and `arbor nearest`: batch point queries against a
+//! triangle mesh, through point files laid out like the ray files of
+//! `shared/peers/FORMAT.md` (formats in docs/queries.md).
+
+use std::path::{Path, PathBuf};
+
+use arbor_accel::{AccelKind, MeshAccel, Vec3};
+use clap::Args;
+use serde_json::json;
+
+use crate::batch::{self, f32_at, AtomicOutput};
+use crate::InputError;
+
+/// Size of one point record: x, y, z, max_distance, all `f32`.
+const POINT_BYTES: usize = 16;
+/// Size of one `nearest` answer: point, triangle, u, v, distance, padding.
+const NEAREST_BYTES: usize = 32;
+/// The triangle index when nothing lies within the point's `max_distance`.
+const NONE: u32 = u32::MAX;
+
+/// Arguments shared by the point queries.
+#[derive(Args, Debug)]
+pub struct PointArgs {
+    /// Triangle mesh: a Cornell `.msh` file or a Wavefront `.obj` (polygons
+    /// split as fans, triangles numbered in file order).
+    #[arg(long, value_name = "FILE")]
+    pub mesh: PathBuf,
+    /// Points: 16-byte little-endian records (x, y, z, max_distance as f32).
+    #[arg(long, value_name = "FILE")]
+    pub points: PathBuf,
+    /// Where to write the answers.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub threads: Option<u32>,
+    /// Build and query this many times; the best build and the median and
+    /// fastest query pass are reported.
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeat: u32,
+    /// Acceleration structure of the mesh's ray queries (default:
+    /// bvh-wide); point queries search a binary BVH either way.
+    #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
+    pub accel: Option<AccelKind>,
+}
+
+/// Arguments of `arbor inside`.
+#[derive(Args, Debug)]
+pub struct InsideArgs {
+    #[command(flatten)]
+    pub common: PointArgs,
+}
+
+/// Arguments of `arbor nearest`.
+#[derive(Args, Debug)]
+pub struct NearestArgs {
+    #[command(flatten)]
+    pub common: PointArgs,
+    /// Negative distances for points inside the mesh (the inside test's
+    /// answer).
+    #[arg(long)]
+    pub signed: bool,
+}
+
+/// Runs `arbor inside`: one byte per point, 1 inside, 0 outside.
+pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
+    run(&args.common, "inside", true, |mesh, points, _| {
+        let inside = mesh.contains_batch(points);
+        let found = inside.iter().filter(|&&i| i).count();
+        (inside.into_iter().map(u8::from).collect(), found)
+    })
+}
+
+/// Runs `arbor nearest`: per point the closest point (x, y, z), its
+/// triangle, barycentrics u, v and the distance (negative inside with
+/// `--signed`), and 4 zero bytes.
+pub fn run_nearest(args: NearestArgs) -> anyhow::Result<()> {
+    let signed = args.signed;
+    let name = if signed { "signed_distance" } else { "nearest" };
+    run(&args.common, name, signed, move |mesh, points, limits| {
+        let near = mesh.closest_point_batch(points, limits);
+        let inside = if signed {
+            mesh.contains_batch(points)
+        } else {
+            Vec::new()
+        };
+        let mut bytes = Vec::with_capacity(points.len() * NEAREST_BYTES);
+        let mut found = 0;
+        for (i, near) in near.iter().enumerate() {
+            let (point, prim, u, v, distance) = match near {
+                Some(c) => {
+                    found += 1;
+                    let sign = if signed && inside[i] { -1.0 } else { 1.0 };
+                    (c.point, c.prim, c.u, c.v, sign * c.distance)
+                }
+                None => (Vec3::ZERO, NONE, 0.0, 0.0, f32::INFINITY),
+            };
+            for x in point.to_array() {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+            bytes.extend_from_slice(&prim.to_le_bytes());
+            for x in [u, v, distance] {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+            bytes.extend_from_slice(&[0; 4]);
+        }
+        (bytes, found)
+    })
+}
+
+/// Loads, builds, reads the points, answers `query` for them `repeat`
+/// times and writes the answers and a one-line JSON summary. `query`
+/// returns the answer bytes and how many points it found something for;
+/// `uses_inside` says whether it answers inside/outside (then an open mesh
+/// is warned about).
+fn run(
+    args: &PointArgs,
+    name: &str,
+    uses_inside: bool,
+    query: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
+) -> anyhow::Result<()> {
+    let kind = args.accel.unwrap_or(AccelKind::DEFAULT);
+    let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
+    let repeat = args.repeat as usize;
+    let (mesh, build_ms) = pool.install(|| {
+        let (mesh, ms) = batch::load_and_build(&args.mesh, kind, repeat)?;
+        let start = std::time::Instant::now();
+        // Part of the build: the point queries' own structure.
+        mesh.prepare_point_queries();
+        anyhow::Ok((mesh, ms + batch::ms_since(start)))
+    })?;
+    if mesh.triangles().is_empty() {
+        return Err(InputError(format!(
+            "{}: the mesh has no triangles; a point query needs at least one",
+            args.mesh.display()
+        ))
+        .into());
+    }
+    let (points, limits) = read_points(&args.points)?;
+    let output = args.out.as_deref().map(AtomicOutput::create).transpose()?;
+    if uses_inside {
+        warn_if_open(&args.mesh, &mesh);
+    }
+    let mut answer = (Vec::new(), 0);
+    let (median, min) = batch::timed(repeat, || {
+        answer = pool.install(|| query(&mesh, &points, &limits));
+    });
+    if let Some(out) = output {
+        out.finish(&answer.0)?;
+    }
+    let summary = json!({
+        "tracer": "arbor",
+        "query": name,
+        "triangles": mesh.triangles().len(),
+        "points": points.len(),
+        "found": answer.1,
+        "threads": pool.current_num_threads(),
+        "accel": kind.name(),
+        "build_ms": batch::millis(build_ms),
+        "query_ms_median": batch::millis(median),
+        "query_ms_min": batch::millis(min),
+        "mqueries_per_s": batch::mega_per_s(points.len(), median),
+    });
+    println!("{summary}");
+    Ok(())
+}
+
+/// Inside/outside is exact only for a closed mesh: say so when it is not.
+fn warn_if_open(path: &Path, mesh: &MeshAccel) {
+    let open = mesh.open_edges();
+    if open > 0 {
+        let edges = if open == 1 { "edge is" } else { "edges are" };
+        eprintln!(
+            "warning: {}: {open} {edges} not shared by exactly two triangles (the mesh is not \
+             closed); inside/outside follows the crossings of one fixed ray per point",
+            path.display()
+        );
+    }
+}
+
+/// Reads a point file: 16-byte records (x, y, z, max_distance); the
+/// coordinates must be finite and max_distance non-negative (`+inf` for no
+/// limit).
+fn read_points(path: &Path) -> anyhow::Result<(Vec<Vec3>, Vec<f32>)> {
+    let bytes = batch::read_records(
+        path,
+        POINT_BYTES,
+        "point",
+        "x, y, z, max_distance as little-endian f32",
+    )?;
+    let mut points = Vec::with_capacity(bytes.len() / POINT_BYTES);
+    let mut limits = Vec::with_capacity(points.capacity());
+    for (i, r) in bytes.chunks_exact(POINT_BYTES).enumerate() {
+        let p = Vec3::new(f32_at(r, 0), f32_at(r, 1), f32_at(r, 2));
+        let max = f32_at(r, 3);
+        if !p.is_finite() {
+            return Err(InputError(format!(
+                "{}: point {i} (bytes {}..{}) has a coordinate that is not a finite number: {p}",
+                path.display(),
+                i * POINT_BYTES,
+                (i + 1) * POINT_BYTES
+            ))
+            .into());
+        }
+        if max.is_nan() || max < 0.0 {
+            return Err(InputError(format!(
+                "{}: point {i} has max_distance {max}; expected a number >= 0 (or +inf)",
+                path.display()
+            ))
+            .into());
+        }
+        points.push(p);
+        limits.push(max);
+    }
+    Ok((points, limits))
+}
