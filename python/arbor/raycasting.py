@@ -126,8 +126,91 @@ class RaycastingScene:
             "primitive_normals": normals.reshape(shape + (3,)),
         }
 
+    @staticmethod
+    def _points(query_points):
+        """``(..., 3)`` query points as ``(k, 3)``, and the leading shape."""
+        points = np.asarray(query_points)
+        if points.ndim < 1 or points.shape[-1] != 3:
+            raise ValueError(
+                f"query_points: expected an array of shape (..., 3), got shape {points.shape}"
+            )
+        return points.reshape(-1, 3), points.shape[:-1]
+
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, nthreads=0):
         """Whether anything lies on each ray with ``tnear <= t <= tfar``:
         a bool array of the rays' leading shape."""
         origins, directions, shape = self._rays(rays)
         return self._scene().occluded(origins, directions, tnear, tfar).reshape(shape)
+
+    def count_intersections(self, rays, nthreads=0):
+        """How many times each ray crosses the surfaces (int32), each
+        crossing once even where a ray passes through a shared edge or
+        vertex."""
+        origins, directions, shape = self._rays(rays)
+        return self._scene().count(origins, directions).astype(np.int32).reshape(shape)
+
+    def list_intersections(self, rays, nthreads=0):
+        """Every crossing of every ray, sorted by ray, then distance.
+
+        Returns a dict: ``ray_splits`` (uint32, one more than rays: ray
+        ``i``'s hits are entries ``ray_splits[i]:ray_splits[i + 1]``),
+        ``ray_ids``, ``geometry_ids``, ``primitive_ids`` (uint32),
+        ``primitive_uvs`` (float32 ``(h, 2)``) and ``t_hit`` (float32).
+        """
+        origins, directions, _ = self._rays(rays)
+        hits = self._scene().all_hits(origins, directions)
+        geometry, primitive = self._ids(hits["triangle"])
+        counts = np.bincount(hits["ray"], minlength=len(origins))
+        splits = np.zeros(len(origins) + 1, dtype=np.uint32)
+        np.cumsum(counts, out=splits[1:])
+        return {
+            "ray_splits": splits,
+            "ray_ids": hits["ray"].astype(np.uint32),
+            "geometry_ids": geometry,
+            "primitive_ids": primitive,
+            "primitive_uvs": np.stack([hits["u"], hits["v"]], axis=-1),
+            "t_hit": hits["t"],
+        }
+
+    def compute_closest_points(self, query_points, nthreads=0):
+        """The closest point of the surfaces to each query point.
+
+        Returns a dict: ``points`` (float32 ``(..., 3)``), ``geometry_ids``
+        and ``primitive_ids`` (uint32), ``primitive_uvs`` (float32
+        ``(..., 2)``) and ``primitive_normals`` (float32 ``(..., 3)``). In an
+        empty scene the ids are ``INVALID_ID``, the points NaN and the rest 0.
+        """
+        points, shape = self._points(query_points)
+        near = self._scene().closest_points(points)
+        triangle = near["triangle"]
+        geometry, primitive = self._ids(triangle)
+        found = triangle >= 0
+        uvs = np.zeros((len(points), 2), np.float32)
+        uvs[found] = np.stack([near["u"], near["v"]], axis=-1)[found]
+        normals = near["normal"]
+        normals[~found] = 0
+        return {
+            "points": near["point"].reshape(shape + (3,)),
+            "geometry_ids": geometry.reshape(shape),
+            "primitive_ids": primitive.reshape(shape),
+            "primitive_uvs": uvs.reshape(shape + (2,)),
+            "primitive_normals": normals.reshape(shape + (3,)),
+        }
+
+    def compute_distance(self, query_points, nthreads=0):
+        """The distance from each query point to the surfaces (float32)."""
+        points, shape = self._points(query_points)
+        return self._scene().closest_points(points)["distance"].reshape(shape)
+
+    def compute_signed_distance(self, query_points, nthreads=0, nsamples=1):
+        """The distance to the surfaces, negative inside (float32): the sign
+        is the exact parity of one ray's crossings, so ``nsamples`` (Open3D's
+        number of voting rays) is accepted and not needed."""
+        points, shape = self._points(query_points)
+        return self._scene().signed_distance(points).reshape(shape)
+
+    def compute_occupancy(self, query_points, nthreads=0, nsamples=1):
+        """1.0 for query points inside the surfaces, 0.0 outside (float32),
+        by the exact parity of one ray's crossings."""
+        points, shape = self._points(query_points)
+        return self._scene().contains(points).astype(np.float32).reshape(shape)

@@ -5,7 +5,8 @@
 
 mod arrays;
 mod mesh;
-mod query;
+mod points;
+mod rays;
 
 use pyo3::prelude::*;
 

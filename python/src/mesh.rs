@@ -1,35 +1,42 @@
 //! `arbor.Mesh`: a triangle mesh with its acceleration structure, and the
-//! ray queries over NumPy arrays. Every query reads its arrays where they
-//! lie, runs without the GIL on the library's parallel batch form, and
-//! hands its answers to NumPy without a copy.
+//! queries over NumPy arrays. Every query reads its arrays where they lie,
+//! runs the library's parallel batch form without the GIL, and hands its
+//! answers to NumPy without a copy.
 
 use std::path::PathBuf;
 
-use arbor_accel::{Ray, Vec3};
+use arbor_accel::{AccelKind, MeshAccel, Vec3};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rayon::prelude::*;
 
-use crate::arrays::{ScalarView, Scalars, Vec3Array, Vec3View};
-use crate::query::{AccelKind, MeshAccel};
+use crate::arrays::Vec3Array;
+use crate::points::{closest_columns, max_distances, Points};
+use crate::rays::{rows3, RayArgs};
 
-/// A triangle mesh prepared for ray queries.
+/// A triangle mesh prepared for ray and point queries.
 ///
 /// ``Mesh(vertices, faces, accel="bvh-wide")`` takes ``(n, 3)`` float32 or
 /// float64 vertices and ``(m, 3)`` integer faces (vertex indices); the mesh
-/// is copied, so later changes to the arrays do not affect it. Queries run
-/// in float32, in parallel, with the GIL released, and give exactly the
+/// is copied, so later changes to the arrays do not affect it. ``accel``
+/// names the acceleration structure (``list``, ``bvh-center``,
+/// ``bvh-median``, ``bvh-sah``, ``bvh-sweep``, ``bvh-cluster``,
+/// ``bvh-wide``, ``grid``, ``kdtree``); all give the same answers. Queries
+/// run in float32, in parallel, with the GIL released, and give exactly the
 /// answers of ``arbor trace`` on the same rays.
+///
+/// Ray queries take ``(k, 3)`` origins and directions (directions need not
+/// be unit length: ``t`` is in their units) and optional ``tmin`` (default
+/// 0) and ``tmax`` (default inf), numbers or ``(k,)`` arrays; a hit counts
+/// when ``tmin <= t <= tmax``. Point queries take ``(k, 3)`` points.
 ///
 /// Raises ValueError for arrays of the wrong shape or dtype, NaN vertices,
 /// or a face index out of range.
 #[pyclass(frozen, module = "arbor", name = "Mesh")]
 pub struct Mesh {
     accel: MeshAccel,
-    kind: AccelKind,
 }
 
 /// The accelerator named `name`.
@@ -48,102 +55,9 @@ impl Mesh {
     ) -> PyResult<Mesh> {
         let accel = py
             .detach(|| MeshAccel::build(vertices, triangles, kind))
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        Ok(Mesh { accel, kind })
+            .map_err(|e| PyValueError::new_err(format!("faces: {e}")))?;
+        Ok(Mesh { accel })
     }
-}
-
-/// Rays from `(k, 3)` origins and directions and their intervals.
-fn rays(
-    origins: Vec3View<'_>,
-    directions: Vec3View<'_>,
-    tmin: ScalarView<'_>,
-    tmax: ScalarView<'_>,
-) -> Vec<Ray> {
-    (0..origins.len())
-        .into_par_iter()
-        .map(|i| Ray::new(origins.get(i), directions.get(i), tmin.get(i), tmax.get(i)))
-        .collect()
-}
-
-/// Reads the four ray arguments, checking that they agree in length.
-struct RayArgs<'py> {
-    origins: Vec3Array<'py>,
-    directions: Vec3Array<'py>,
-    tmin: Scalars<'py>,
-    tmax: Scalars<'py>,
-}
-
-impl<'py> RayArgs<'py> {
-    fn extract(
-        origins: &Bound<'py, PyAny>,
-        directions: &Bound<'py, PyAny>,
-        tmin: &Bound<'py, PyAny>,
-        tmax: &Bound<'py, PyAny>,
-    ) -> PyResult<Self> {
-        let origins = Vec3Array::extract(origins, "origins")?;
-        let directions = Vec3Array::extract(directions, "directions")?;
-        let k = origins.view().len();
-        if directions.view().len() != k {
-            return Err(PyValueError::new_err(format!(
-                "directions: expected {k} rows, one per origin, got {}",
-                directions.view().len()
-            )));
-        }
-        Ok(RayArgs {
-            origins,
-            directions,
-            tmin: Scalars::extract(tmin, "tmin", k)?,
-            tmax: Scalars::extract(tmax, "tmax", k)?,
-        })
-    }
-
-    /// Views of the arguments that can cross into code running without
-    /// the GIL.
-    fn views(&self) -> RayViews<'_> {
-        RayViews {
-            origins: self.origins.view(),
-            directions: self.directions.view(),
-            tmin: self.tmin.view(),
-            tmax: self.tmax.view(),
-        }
-    }
-}
-
-/// [`RayArgs`] as plain views.
-#[derive(Clone, Copy)]
-struct RayViews<'a> {
-    origins: Vec3View<'a>,
-    directions: Vec3View<'a>,
-    tmin: ScalarView<'a>,
-    tmax: ScalarView<'a>,
-}
-
-impl RayViews<'_> {
-    /// The rays, in parallel.
-    fn rays(&self) -> Vec<Ray> {
-        rays(self.origins, self.directions, self.tmin, self.tmax)
-    }
-}
-
-/// A `(k, 3)` float32 array from rows.
-fn rows3<'py>(py: Python<'py>, rows: Vec<[f32; 3]>) -> Bound<'py, PyArray2<f32>> {
-    let k = rows.len();
-    let flat: Vec<f32> = rows.into_iter().flatten().collect();
-    // The length is 3k by construction.
-    Array2::from_shape_vec((k, 3), flat)
-        .expect("3 values per row")
-        .into_pyarray(py)
-}
-
-/// The closest hits of [`Mesh::intersect`], one entry per ray.
-struct Closest {
-    t: Vec<f32>,
-    triangle: Vec<i64>,
-    u: Vec<f32>,
-    v: Vec<f32>,
-    point: Vec<[f32; 3]>,
-    normal: Vec<[f32; 3]>,
 }
 
 #[pymethods]
@@ -188,7 +102,7 @@ impl Mesh {
     /// The acceleration structure's name.
     #[getter]
     fn accel(&self) -> &'static str {
-        self.kind.name()
+        self.accel.kind().name()
     }
 
     fn __len__(&self) -> usize {
@@ -200,22 +114,18 @@ impl Mesh {
             "arbor.Mesh({} vertices, {} triangles, accel={:?})",
             self.accel.vertices().len(),
             self.accel.triangles().len(),
-            self.kind.name()
+            self.accel.kind().name()
         )
     }
 
-    /// The closest hit of each ray ``origins[i] + t * directions[i]`` with
-    /// ``tmin <= t <= tmax``.
+    /// The closest hit of each ray.
     ///
-    /// ``origins`` and ``directions`` are ``(k, 3)`` float arrays
-    /// (directions need not be unit length: ``t`` is in their units);
-    /// ``tmin`` (default 0) and ``tmax`` (default inf) are numbers or
-    /// ``(k,)`` arrays. Returns a dict of arrays: ``t`` (float32, inf on a
-    /// miss), ``triangle`` (int64, -1 on a miss), ``u`` and ``v`` (float32
-    /// barycentrics: the hit is ``(1 - u - v) p0 + u p1 + v p2``), ``point``
-    /// (``(k, 3)`` float32) and ``normal`` (``(k, 3)`` float32, the unit
-    /// geometric normal ``(p1 - p0) x (p2 - p0)``); u, v, point and normal
-    /// are NaN on a miss.
+    /// Returns a dict of ``(k,)`` arrays: ``t`` (float32, inf on a miss),
+    /// ``triangle`` (int64, -1 on a miss), ``u`` and ``v`` (float32
+    /// barycentrics: the hit is ``(1 - u - v) p0 + u p1 + v p2``), and
+    /// ``(k, 3)`` float32 ``point`` (the ray's point at ``t``) and
+    /// ``normal`` (the unit geometric normal ``(p1 - p0) x (p2 - p0)``);
+    /// u, v, point and normal are NaN on a miss.
     #[pyo3(signature = (origins, directions, tmin = None, tmax = None))]
     fn intersect<'py>(
         &self,
@@ -225,26 +135,13 @@ impl Mesh {
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let (tmin, tmax) = defaults(py, tmin, tmax);
-        let args = RayArgs::extract(origins, directions, &tmin, &tmax)?;
-        let views = args.views();
-        let found = py.detach(|| {
-            let rays = views.rays();
-            let hits = self.accel.closest_batch(&rays);
-            self.closest(&rays, &hits)
-        });
-        let out = PyDict::new(py);
-        out.set_item("t", PyArray1::from_vec(py, found.t))?;
-        out.set_item("triangle", PyArray1::from_vec(py, found.triangle))?;
-        out.set_item("u", PyArray1::from_vec(py, found.u))?;
-        out.set_item("v", PyArray1::from_vec(py, found.v))?;
-        out.set_item("point", rows3(py, found.point))?;
-        out.set_item("normal", rows3(py, found.normal))?;
-        Ok(out)
+        let views = RayArgs::extract(origins, directions, tmin, tmax)?;
+        let views = views.views();
+        let found = py.detach(|| crate::rays::closest(&self.accel, &views.rays()));
+        found.into_dict(py)
     }
 
-    /// Whether anything lies on each ray within ``[tmin, tmax]``: a
-    /// ``(k,)`` bool array. Arguments as for :meth:`intersect`.
+    /// Whether anything lies on each ray: a ``(k,)`` bool array.
     #[pyo3(signature = (origins, directions, tmin = None, tmax = None))]
     fn occluded<'py>(
         &self,
@@ -254,81 +151,121 @@ impl Mesh {
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let (tmin, tmax) = defaults(py, tmin, tmax);
-        let args = RayArgs::extract(origins, directions, &tmin, &tmax)?;
+        let args = RayArgs::extract(origins, directions, tmin, tmax)?;
         let views = args.views();
         let blocked = py.detach(|| self.accel.occluded_batch(&views.rays()));
         Ok(PyArray1::from_vec(py, blocked))
     }
-}
 
-impl Mesh {
-    /// Spreads closest hits into the columns of [`Mesh::intersect`].
-    fn closest(&self, rays: &[Ray], hits: &[Option<arbor_accel::MeshHit>]) -> Closest {
-        let nan3 = [f32::NAN; 3];
-        let mut c = Closest {
-            t: Vec::with_capacity(hits.len()),
-            triangle: Vec::with_capacity(hits.len()),
-            u: Vec::with_capacity(hits.len()),
-            v: Vec::with_capacity(hits.len()),
-            point: Vec::with_capacity(hits.len()),
-            normal: Vec::with_capacity(hits.len()),
-        };
-        for (ray, hit) in rays.iter().zip(hits) {
-            match hit {
-                Some(h) => {
-                    c.t.push(h.hit.t);
-                    c.triangle.push(i64::from(h.prim));
-                    c.u.push(h.hit.u);
-                    c.v.push(h.hit.v);
-                    c.point.push(ray.at(h.hit.t).to_array());
-                    c.normal.push(self.normal(h.prim));
-                }
-                None => {
-                    c.t.push(f32::INFINITY);
-                    c.triangle.push(-1);
-                    c.u.push(f32::NAN);
-                    c.v.push(f32::NAN);
-                    c.point.push(nan3);
-                    c.normal.push(nan3);
-                }
-            }
-        }
-        c
+    /// Every crossing of the surface along each ray, each crossing once:
+    /// where a ray passes exactly through an edge or vertex shared by
+    /// several triangles, exactly one of them reports it, so a ray through
+    /// a closed mesh has an even number of hits.
+    ///
+    /// Returns a dict of flat arrays, sorted by ray, then ``t``, ties by
+    /// triangle: ``ray`` (int64, the index of each hit's ray) and the
+    /// columns of :meth:`intersect` (``t``, ``triangle``, ``u``, ``v``,
+    /// ``point``, ``normal``).
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None))]
+    fn all_hits<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: Option<&Bound<'py, PyAny>>,
+        tmax: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let args = RayArgs::extract(origins, directions, tmin, tmax)?;
+        let views = args.views();
+        let (found, ray) = py.detach(|| crate::rays::all(&self.accel, &views.rays()));
+        let out = found.into_dict(py)?;
+        out.set_item("ray", PyArray1::from_vec(py, ray))?;
+        Ok(out)
     }
 
-    /// The unit geometric normal of triangle `prim`, computed in float64.
-    fn normal(&self, prim: u32) -> [f32; 3] {
-        let [a, b, c] = self.accel.triangles()[prim as usize]
-            .map(|i| self.accel.vertices()[i as usize].as_dvec3());
-        (b - a)
-            .cross(c - a)
-            .normalize_or_zero()
-            .as_vec3()
-            .to_array()
+    /// How many times each ray crosses the surface (the hits of
+    /// :meth:`all_hits`, without storing them): a ``(k,)`` uint32 array.
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None))]
+    fn count<'py>(
+        &self,
+        py: Python<'py>,
+        origins: &Bound<'py, PyAny>,
+        directions: &Bound<'py, PyAny>,
+        tmin: Option<&Bound<'py, PyAny>>,
+        tmax: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<u32>>> {
+        let args = RayArgs::extract(origins, directions, tmin, tmax)?;
+        let views = args.views();
+        let counts = py.detach(|| self.accel.count_batch(&views.rays()));
+        Ok(PyArray1::from_vec(py, counts))
+    }
+
+    /// Whether each point lies inside the mesh: a ``(k,)`` bool array.
+    ///
+    /// The exact parity of the crossings of one ray from the point in a
+    /// fixed direction (no jittered votes). Exact for a closed mesh; for a
+    /// mesh with holes (see :meth:`open_edges`) the answer is that fixed
+    /// direction's parity. Points on the surface may be answered either way.
+    fn contains<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let points = Points::extract(points)?;
+        let points = points.slice();
+        let inside = py.detach(|| self.accel.contains_batch(&points));
+        Ok(PyArray1::from_vec(py, inside))
+    }
+
+    /// The point of the mesh closest to each point, within ``max_distance``
+    /// (a number or a ``(k,)`` array; default inf).
+    ///
+    /// Returns a dict: ``point`` (``(k, 3)`` float32), ``triangle`` (int64;
+    /// of several at the same distance the smallest index), ``u`` and ``v``
+    /// (float32 barycentrics on it), ``distance`` (float32) and ``normal``
+    /// (``(k, 3)`` float32, the triangle's unit geometric normal); for a point
+    /// with nothing within its maximum distance ``triangle`` is -1,
+    /// ``distance`` inf and the rest NaN.
+    #[pyo3(signature = (points, max_distance = None))]
+    fn closest_points<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+        max_distance: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let points = Points::extract(points)?;
+        let limits = max_distances(max_distance, points.len())?;
+        let points = points.slice();
+        let found = py.detach(|| self.accel.closest_point_batch(&points, &limits));
+        closest_columns(py, &self.accel, &found)
+    }
+
+    /// The distance from each point to the mesh, negative inside (the sign
+    /// is :meth:`contains`'s answer): a ``(k,)`` float32 array; inf for an
+    /// empty mesh.
+    fn signed_distance<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let points = Points::extract(points)?;
+        let points = points.slice();
+        let distances = py.detach(|| self.accel.signed_distance_batch(&points));
+        Ok(PyArray1::from_vec(py, distances))
+    }
+
+    /// How many edges are not shared by exactly two triangles running along
+    /// them in opposite directions: 0 for a closed, consistently oriented
+    /// mesh, where :meth:`contains` and :meth:`signed_distance` are exact.
+    fn open_edges(&self, py: Python<'_>) -> usize {
+        py.detach(|| self.accel.open_edges())
     }
 }
 
-/// `tmin` and `tmax` with their defaults, 0 and inf.
-fn defaults<'py>(
-    py: Python<'py>,
-    tmin: Option<&Bound<'py, PyAny>>,
-    tmax: Option<&Bound<'py, PyAny>>,
-) -> (Bound<'py, PyAny>, Bound<'py, PyAny>) {
-    let num = |x: f64| {
-        x.into_pyobject(py)
-            .map(|f| f.into_any())
-            .expect("a float converts")
-    };
-    (
-        tmin.cloned().unwrap_or_else(|| num(0.0)),
-        tmax.cloned().unwrap_or_else(|| num(f64::INFINITY)),
-    )
-}
-
-/// Reads a mesh file (``.obj`` or ``.msh``) with the loader of ``arbor
-/// trace``, triangles numbered as it numbers them, and prepares it for
-/// queries. Raises OSError naming the file when it is missing or broken.
+/// Reads a mesh file with the loader of ``arbor trace``, triangles numbered
+/// as it numbers them, and prepares it for queries (``accel`` as for
+/// :class:`Mesh`). Raises OSError naming the file when it is missing or
+/// broken.
 #[pyfunction]
 #[pyo3(signature = (path, accel = "bvh-wide"))]
 pub fn load_mesh(py: Python<'_>, path: PathBuf, accel: &str) -> PyResult<Mesh> {

@@ -114,3 +114,50 @@ def trace_cli(tmp_path, mesh_path, origins, directions, tmin, tmax, occluded=Fal
     tri = rec["tri"].astype(np.int64)
     tri[rec["tri"] == 0xFFFFFFFF] = -1
     return rec["t"], tri, rec["u"], rec["v"]
+
+
+def brute_closest(vertices, faces, point):
+    """The distance from `point` to the nearest triangle, and that
+    triangle's index, by checking every triangle in float64 (the closest
+    point of each triangle by its Voronoi regions, as in Ericson's
+    "Real-Time Collision Detection", 5.1.5)."""
+    tri = np.asarray(vertices, np.float64)[np.asarray(faces)]
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    p = np.asarray(point, np.float64)
+    dot = lambda x, y: np.einsum("ij,ij->i", x, y)  # noqa: E731
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = dot(ab, ap), dot(ac, ap)
+    bp, cp = p - b, p - c
+    d3, d4 = dot(ab, bp), dot(ac, bp)
+    d5, d6 = dot(ab, cp), dot(ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = 1.0 / (va + vb + vc)
+        closest = a + ab * (vb * denom)[:, None] + ac * (vc * denom)[:, None]  # inside the face
+        regions = [
+            ((d1 <= 0) & (d2 <= 0), a),
+            ((d3 >= 0) & (d4 <= d3), b),
+            ((d6 >= 0) & (d5 <= d6), c),
+            ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + ab * (d1 / (d1 - d3))[:, None]),
+            ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + ac * (d2 / (d2 - d6))[:, None]),
+            (
+                (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0),
+                b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))[:, None],
+            ),
+        ]
+    # The first region that applies wins, as in the sequential tests.
+    for mask, q in reversed(regions):
+        closest = np.where(mask[:, None], q, closest)
+    distance = np.linalg.norm(closest - p, axis=1)
+    return distance.min(), int(np.argmin(distance))
+
+
+def box_distance(points, lo=-1.0, hi=1.0):
+    """The signed distance from points to the surface of the axis-aligned
+    box [lo, hi]^3, negative inside."""
+    p = np.asarray(points, np.float64)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+    q = np.abs(p - centre) - half
+    outside = np.linalg.norm(np.maximum(q, 0), axis=1)
+    inside = np.minimum(q.max(axis=1), 0)
+    return outside + inside

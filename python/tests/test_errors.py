@@ -20,7 +20,7 @@ D = np.ones((2, 3))
         (V.astype(np.float16), F, "got dtype float16"),
         (V, F[:, :2], r"faces: expected an array of shape \(k, 3\)"),
         (V, F.astype(np.float64), "faces: expected integer vertex indices, got dtype float64"),
-        (V, F + 8, "triangle 0 has vertex indices .* only 8 vertices"),
+        (V, F + 8, "faces: triangle 0 names vertex 8, but the mesh has 8 vertices"),
         (V, -F - 1, "faces: triangle 0 has vertex index -1, out of range"),
         (V, F.astype(np.uint64) + np.uint64(2**63), "out of range"),
         (np.where(np.arange(24).reshape(8, 3) == 5, np.nan, V), F, "vertices: NaN coordinates"),
@@ -71,3 +71,27 @@ def test_broken_model_is_an_os_error_naming_file_and_line(tmp_path):
     unknown.write_text("")
     with pytest.raises(OSError, match=f"{unknown}: unknown mesh file type"):
         arbor.load_mesh(str(unknown))
+
+
+@pytest.mark.parametrize("query", ["all_hits", "count"])
+def test_bad_rays_of_the_crossing_queries(query):
+    mesh = arbor.Mesh(V, F)
+    with pytest.raises(ValueError, match="directions: expected 2 rows"):
+        getattr(mesh, query)(O, D[:1])
+    with pytest.raises(ValueError, match=r"tmax: .*got shape \(3,\)"):
+        getattr(mesh, query)(O, D, tmax=[1.0, 2.0, 3.0])
+
+
+@pytest.mark.parametrize("query", ["contains", "closest_points", "signed_distance"])
+def test_bad_points_are_value_errors(query):
+    mesh = arbor.Mesh(V, F)
+    with pytest.raises(ValueError, match=r"points: expected an array of shape \(k, 3\), got shape \(2, 2\)"):
+        getattr(mesh, query)(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="points: expected float32 or float64 values, got dtype int64"):
+        getattr(mesh, query)(np.zeros((2, 3), np.int64))
+
+
+def test_bad_maximum_distances_are_value_errors():
+    mesh = arbor.Mesh(V, F)
+    with pytest.raises(ValueError, match=r"max_distance: expected a number or an array of shape \(2,\)"):
+        mesh.closest_points(np.zeros((2, 3)), max_distance=[1.0])

@@ -98,7 +98,7 @@ def test_empty_scene_misses_and_mesh_objects_are_accepted():
 def test_bad_input():
     scene = arbor.RaycastingScene()
     v, f = box()
-    with pytest.raises(ValueError, match="only 8 vertices"):
+    with pytest.raises(ValueError, match="but the mesh has 8 vertices"):
         scene.add_triangles(v, f + 1)
     with pytest.raises(TypeError, match="add_triangles: expected"):
         scene.add_triangles(42)
@@ -106,3 +106,49 @@ def test_bad_input():
         scene.cast_rays(np.zeros((3, 3)))
     # the failed call added nothing
     assert scene.add_triangles(v, f) == 0
+
+
+def test_counts_and_lists_of_intersections():
+    scene, _, _ = two_boxes()
+    rays = np.array(
+        [[-5, 0, 0, 1, 0, 0], [9, 9, 9, 1, 0, 0], [-0.5, -0.5, -5, 0, 0, 1]], np.float32
+    )
+    counts = scene.count_intersections(rays)
+    assert counts.dtype == np.int32
+    # Through both boxes; a miss; along the edge x = y = -0.5 of the first box,
+    # which touches its silhouette: 0 or 2 crossings, never 1.
+    assert counts[0] == 4 and counts[1] == 0 and counts[2] in (0, 2)
+    listed = scene.list_intersections(rays)
+    n = counts.sum()
+    np.testing.assert_array_equal(listed["ray_splits"], np.concatenate([[0], np.cumsum(counts)]))
+    assert listed["ray_ids"].dtype == np.uint32 and len(listed["ray_ids"]) == n
+    np.testing.assert_array_equal(listed["t_hit"][:4], [4.5, 5.5, 7.5, 8.5])
+    np.testing.assert_array_equal(listed["geometry_ids"][:4], [0, 0, 1, 1])
+    assert listed["primitive_uvs"].shape == (n, 2)
+    assert (listed["primitive_ids"][:4] < 12).all()
+
+
+def test_point_queries():
+    scene, _, _ = two_boxes()
+    points = np.array([[0, 0, 2.0], [3, 0, 0.25], [1.5, 0, 0]], np.float32)
+    near = scene.compute_closest_points(points)
+    np.testing.assert_allclose(near["points"], [[0, 0, 0.5], [3, 0, 0.5], [0.5, 0, 0]], atol=1e-7)
+    np.testing.assert_array_equal(near["geometry_ids"], [0, 1, 0])
+    np.testing.assert_array_equal(near["primitive_normals"], [[0, 0, 1], [0, 0, 1], [1, 0, 0]])
+    assert near["primitive_uvs"].shape == (3, 2) and near["primitive_ids"].dtype == np.uint32
+    np.testing.assert_allclose(scene.compute_distance(points), [1.5, 0.25, 1.0])
+    np.testing.assert_allclose(scene.compute_signed_distance(points), [1.5, -0.25, 1.0])
+    np.testing.assert_array_equal(scene.compute_occupancy(points), [0, 1, 0])
+    grid = np.zeros((2, 4, 3), np.float32)
+    assert scene.compute_signed_distance(grid).shape == (2, 4)
+    assert scene.compute_closest_points(grid)["points"].shape == (2, 4, 3)
+    with pytest.raises(ValueError, match=r"query_points: expected an array of shape \(\.\.\., 3\)"):
+        scene.compute_distance(np.zeros((3, 2)))
+
+
+def test_empty_scene_point_queries():
+    scene = arbor.RaycastingScene()
+    near = scene.compute_closest_points(np.zeros((1, 3), np.float32))
+    assert near["geometry_ids"][0] == scene.INVALID_ID and np.isnan(near["points"]).all()
+    assert (near["primitive_normals"] == 0).all()
+    assert scene.compute_distance(np.zeros((1, 3), np.float32))[0] == np.inf
