@@ -6,10 +6,10 @@
 //! name the argument.
 
 use arbor_accel::Vec3;
-use numpy::ndarray::{ArrayView1, ArrayView2};
+use numpy::ndarray::{ArrayView1, ArrayView2, Dimension};
 use numpy::{
-    dtype, PyArray1, PyArray2, PyArrayDescrMethods, PyArrayMethods, PyReadonlyArray1,
-    PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods,
+    dtype, PyArray, PyArray2, PyArrayDescrMethods, PyArrayMethods, PyReadonlyArray,
+    PyReadonlyArray1, PyReadonlyArray2, PyUntypedArray, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -62,6 +62,28 @@ fn dtype_name(a: &Bound<'_, PyUntypedArray>) -> String {
     a.dtype().to_string()
 }
 
+/// `a` borrowed read-only with its float32 or float64 elements, handed to
+/// `f32s` or `f64s`; other dtypes are a `ValueError` naming `what`.
+fn float_elements<'py, D: Dimension, R>(
+    a: &Bound<'py, PyUntypedArray>,
+    what: &str,
+    f32s: impl FnOnce(PyReadonlyArray<'py, f32, D>) -> R,
+    f64s: impl FnOnce(PyReadonlyArray<'py, f64, D>) -> R,
+) -> PyResult<R> {
+    let py = a.py();
+    let dt = a.dtype();
+    if dt.is_equiv_to(&dtype::<f32>(py)) {
+        Ok(f32s(a.cast::<PyArray<f32, D>>()?.readonly()))
+    } else if dt.is_equiv_to(&dtype::<f64>(py)) {
+        Ok(f64s(a.cast::<PyArray<f64, D>>()?.readonly()))
+    } else {
+        Err(PyValueError::new_err(format!(
+            "{what}: expected float32 or float64 values, got dtype {}",
+            dtype_name(a)
+        )))
+    }
+}
+
 /// A `(k, 3)` float32 or float64 array, borrowed read-only.
 pub enum Vec3Array<'py> {
     /// float32 elements.
@@ -75,18 +97,7 @@ impl<'py> Vec3Array<'py> {
     pub fn extract(obj: &Bound<'py, PyAny>, what: &str) -> PyResult<Self> {
         let a = as_ndarray(obj, what, true)?;
         check_k3(&a, what)?;
-        let py = obj.py();
-        let dt = a.dtype();
-        if dt.is_equiv_to(&dtype::<f32>(py)) {
-            Ok(Vec3Array::F32(a.cast::<PyArray2<f32>>()?.readonly()))
-        } else if dt.is_equiv_to(&dtype::<f64>(py)) {
-            Ok(Vec3Array::F64(a.cast::<PyArray2<f64>>()?.readonly()))
-        } else {
-            Err(PyValueError::new_err(format!(
-                "{what}: expected float32 or float64 values, got dtype {}",
-                dtype_name(&a)
-            )))
-        }
+        float_elements(&a, what, Vec3Array::F32, Vec3Array::F64)
     }
 
     /// A view that can cross into code running without the GIL.
@@ -211,18 +222,7 @@ impl<'py> Scalars<'py> {
                 shape(&a)
             )));
         }
-        let py = obj.py();
-        let dt = a.dtype();
-        if dt.is_equiv_to(&dtype::<f32>(py)) {
-            Ok(Scalars::F32(a.cast::<PyArray1<f32>>()?.readonly()))
-        } else if dt.is_equiv_to(&dtype::<f64>(py)) {
-            Ok(Scalars::F64(a.cast::<PyArray1<f64>>()?.readonly()))
-        } else {
-            Err(PyValueError::new_err(format!(
-                "{what}: expected float32 or float64 values, got dtype {}",
-                dtype_name(&a)
-            )))
-        }
+        float_elements(&a, what, Scalars::F32, Scalars::F64)
     }
 
     /// A view that can cross into code running without the GIL.
