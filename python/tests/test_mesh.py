@@ -136,3 +136,32 @@ def test_empty_mesh_and_no_rays():
     mesh = arbor.Mesh(*box())
     none = mesh.intersect(np.zeros((0, 3)), np.zeros((0, 3)))
     assert none["t"].shape == (0,) and none["point"].shape == (0, 3)
+
+
+def test_queries_release_the_gil(rng):
+    """Another Python thread runs while a query works: it counts how often it
+    got to run between the query's start and end, which with the GIL held
+    throughout would be (almost) never."""
+    import threading
+
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    origins, directions = random_rays(rng, 1_000_000)
+    mesh = arbor.Mesh(sphere.vertices, sphere.faces)
+    started, done = threading.Event(), threading.Event()
+
+    def query():
+        started.set()
+        mesh.intersect(origins, directions)
+        done.set()
+
+    worker = threading.Thread(target=query)
+    worker.start()
+    started.wait()
+    turns = 0
+    while not done.is_set():
+        turns += 1
+        done.wait(0.0001)
+    worker.join()
+    assert turns > 50
