@@ -3,9 +3,7 @@
 //! (`crates/arbor-accel/tests/fuzz_regressions.rs`), so that a replay
 //! decodes and checks an input exactly as the fuzzer did.
 
-use arbor_accel::{
-    Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleBvh, TriangleMesh, Vec3,
-};
+use arbor_accel::{Accel, AccelKind, Accelerator, MeshAccel, NoCounters, Ray, TriangleMesh, Vec3};
 
 /// Reads f32s from the bytes, mapping some byte patterns to the special
 /// values fuzzing should meet often.
@@ -55,15 +53,16 @@ pub fn check(data: &[u8]) -> usize {
     let triangles: Vec<[u32; 3]> = (0..vertices.len() as u32 / 3)
         .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
         .collect();
+    // The wide BVH that owns its triangles and tests four at a time (what
+    // `arbor trace` uses by default).
+    let packed = MeshAccel::build(vertices.clone(), triangles.clone(), AccelKind::BvhWide)
+        .expect("indices in range");
     let mesh = TriangleMesh::new(vertices, triangles);
     let list = Accel::build(AccelKind::List, &mesh);
     let built: Vec<Accel> = AccelKind::ALL
         .iter()
         .map(|&k| Accel::build(k, &mesh))
         .collect();
-    // The wide BVH that owns its triangles and tests four at a time (what
-    // `arbor trace` uses).
-    let packed = TriangleBvh::build(&mesh, &TriangleBvh::params());
     let mut checked = 0;
     for r in floats(rays).chunks_exact(8) {
         let ray = Ray::new(
@@ -92,7 +91,7 @@ pub fn check(data: &[u8]) -> usize {
 
 /// Asserts that every structure answers `ray`'s closest-hit and occlusion
 /// queries as brute force (`list`) does.
-fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &TriangleBvh, ray: &Ray) {
+fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &MeshAccel, ray: &Ray) {
     let expected = closest(list, mesh, ray);
     let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
     let occluded = list.occluded(ray, &mut NoCounters, test);
@@ -102,7 +101,7 @@ fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &Triang
     }
     // Of tied triangles it keeps the first offered: the same distance,
     // on a triangle that the scalar test hits there.
-    let got = packed.closest(ray, &mut NoCounters);
+    let got = packed.closest(ray);
     assert_eq!(
         got.map(|h| h.hit.t),
         expected.map(|e| e.0),
@@ -112,5 +111,5 @@ fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &Triang
         let own = mesh.intersect(h.prim as usize, ray).map(|x| x.t);
         assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
     }
-    assert_eq!(packed.occluded(ray, &mut NoCounters), occluded, "packed");
+    assert_eq!(packed.occluded(ray), occluded, "packed");
 }

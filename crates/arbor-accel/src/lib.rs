@@ -1,26 +1,50 @@
 //! # arbor-accel
 //!
 //! Ray casting building blocks that know nothing of scenes, shaders or files:
-//! rays, bounding boxes, a watertight ray/triangle test, and acceleration
-//! structures that index *any* set of primitives through the [`Primitives`]
-//! trait. The caller supplies the exact primitive test as a closure at query
-//! time, so the same structure serves triangle soups, analytic spheres or
-//! whole transformed instances.
+//! rays, bounding boxes, a watertight ray/triangle test, acceleration
+//! structures, and [`MeshAccel`], which answers every common query against a
+//! triangle mesh.
 //!
-//! Every structure answers exactly what the brute-force [`List`] answers; they
-//! differ only in speed. Traversal runs in `f32`, conservatively: a box test
-//! never rejects a box that the ray touches in exact arithmetic (see
-//! [`Aabb::intersect`]), so a caller whose exact test runs in `f64` loses no hit
-//! as long as its primitive boxes (and [`Primitives::clipped_bounds`]) enclose
-//! what its test can hit, i.e. the test reports hits only where the primitive
-//! really is ([`intersect_triangle`] guarantees this for triangles).
+//! ```
+//! use arbor_accel::{AccelKind, MeshAccel, Ray, Vec3};
 //!
-//! Structures ([`AccelKind`] names them): [`List`] (brute force), [`Bvh`] with
-//! five builders ([`BvhBuilder`]), the 8-wide [`WideBvh`] collapsed from the
-//! binned-SAH tree, the uniform [`Grid`] and the SAH [`KdTree`];
-//! [`Accel`] holds any of them. Bounding volumes: [`Aabb`], [`BoundingSphere`],
-//! [`Obb`]. The design, error bounds, constants and measurements are written up
-//! in `docs/acceleration.md`.
+//! // A unit square in the plane z = 0, as two triangles.
+//! let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+//! let mesh = MeshAccel::build(vertices, vec![[0, 1, 2], [0, 2, 3]], AccelKind::DEFAULT)?;
+//!
+//! // The closest hit of one ray, and of many in parallel.
+//! let down = Ray::new(Vec3::new(0.25, 0.5, 2.0), -Vec3::Z, 0.0, f32::INFINITY);
+//! let hit = mesh.closest(&down).expect("the ray hits the square");
+//! assert_eq!((hit.prim, hit.hit.t), (1, 2.0));
+//! let hits = mesh.closest_batch(&[down, Ray { origin: Vec3::splat(5.0), ..down }]);
+//! assert!(hits[0].is_some() && hits[1].is_none());
+//!
+//! // Through the shared diagonal: one crossing, reported once.
+//! let diagonal = Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z, 0.0, f32::INFINITY);
+//! assert_eq!(mesh.count(&diagonal), 1);
+//!
+//! // The closest point of the mesh to a point, and its distance.
+//! let near = mesh.closest_point(Vec3::new(0.5, 0.5, 3.0), f32::INFINITY).unwrap();
+//! assert_eq!((near.point, near.distance), (Vec3::new(0.5, 0.5, 0.0), 3.0));
+//! # Ok::<(), arbor_accel::MeshError>(())
+//! ```
+//!
+//! Every structure ([`AccelKind`] names them: brute force [`List`], [`Bvh`]
+//! with five builders ([`BvhBuilder`]), the 8-wide [`WideBvh`], the uniform
+//! [`Grid`] and the SAH [`KdTree`]) answers exactly what brute force
+//! answers; they differ only in speed. They index *any* set of primitives
+//! through the [`Primitives`] trait, and the caller supplies the exact
+//! primitive test as a closure at query time ([`Accelerator`]), so the same
+//! structure serves triangle soups, analytic spheres or whole transformed
+//! instances ([`Accel`] holds any of them). Traversal runs in `f32`,
+//! conservatively: a box test never rejects a box that the ray touches in
+//! exact arithmetic ([`Aabb::intersect`]), so a caller whose exact test
+//! reports hits only where its primitive really is loses none
+//! ([`intersect_triangle`] guarantees this for triangles; [`numerics`] has
+//! its parts for callers writing their own loops). Bounding volumes:
+//! [`Aabb`], [`BoundingSphere`], [`Obb`]. The design, error bounds and
+//! constants are written up in `docs/acceleration.md`, the queries' rules
+//! and file formats in `docs/queries.md`.
 
 #![warn(missing_docs)]
 
@@ -40,9 +64,9 @@ mod triangle;
 mod triangle_lanes;
 mod util;
 
-pub use aabb::{widen_exit, Aabb, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
+pub use aabb::Aabb;
 pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
-pub use bvh::{one_octant, Bvh, BvhBuilder, BvhNode, BvhParams, TriangleBvh, WideBvh, PACKET};
+pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, WideBvh};
 pub use counters::{Counters, NoCounters, RayCounts};
 pub use grid::{Grid, GridParams};
 pub use kdtree::{KdParams, KdTree};
@@ -52,10 +76,33 @@ pub use obb::Obb;
 pub use primitives::Primitives;
 pub use ray::Ray;
 pub use sphere::BoundingSphere;
-pub use triangle::{
-    clip_triangle_bounds, intersect_triangle, intersect_triangle_owned, intersect_triangle_sheared,
-    is_degenerate, RayShear, TriangleHit, TriangleMesh,
-};
+pub use triangle::{intersect_triangle, TriangleHit, TriangleMesh};
+
+// Inside the crate, the numerics and the mesh-specialised structure by
+// their short names.
+pub(crate) use bvh::{TriangleBvh, PACKET};
+pub(crate) use numerics::*;
+
+/// The exact arithmetic under the structures, for callers that write their
+/// own traversal or triangle loop: the watertight test with the ray's shear
+/// computed once ([`numerics::RayShear`]), its once-per-crossing form, the
+/// slab test's exit widening and the exact clipping of a triangle to a box.
+/// `docs/acceleration.md` ("Robustness") derives the bounds.
+pub mod numerics {
+    pub use crate::aabb::{widen_exit, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
+    pub use crate::triangle::{
+        clip_triangle_bounds, intersect_triangle_owned, intersect_triangle_sheared, is_degenerate,
+        RayShear,
+    };
+}
 
 /// The vector type of the public API (re-exported so users need not depend on glam).
 pub use glam::Vec3;
+
+// The documentation's examples are compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../../docs/acceleration.md")]
+mod acceleration_md {}
+#[cfg(doctest)]
+#[doc = include_str!("../../../docs/queries.md")]
+mod queries_md {}

@@ -20,7 +20,9 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::triangle::{certain_any_hit, hit_from_certain_edges, intersect_triangle_sheared};
+use crate::triangle::{
+    certain_any_hit, hit_from_certain_edges, intersect_triangle_owned, intersect_triangle_sheared,
+};
 use crate::Ray;
 use crate::{RayShear, TriangleHit};
 
@@ -352,9 +354,11 @@ impl EdgeVerdict {
     }
 
     /// The full test of lane `k` (a candidate) against `tri`: exactly what
-    /// [`intersect_triangle_sheared`] answers for it.
+    /// [`intersect_triangle_sheared`] answers for it, or with `OWNED`
+    /// [`intersect_triangle_owned`] (the two differ only where an edge
+    /// function is exactly zero, which a lane with certain signs never has).
     #[inline(always)]
-    pub(crate) fn finish(
+    pub(crate) fn finish<const OWNED: bool>(
         &self,
         k: usize,
         ray: &Ray,
@@ -365,6 +369,8 @@ impl EdgeVerdict {
         if self.inside & (1 << k) != 0 {
             let edges = [self.u[k], self.v[k], self.w[k]];
             hit_from_certain_edges(ray, s, p0, p1, p2, edges, self.scale[k])
+        } else if OWNED {
+            intersect_triangle_owned(ray, s, p0, p1, p2)
         } else {
             intersect_triangle_sheared(ray, s, p0, p1, p2)
         }
@@ -616,7 +622,7 @@ mod tests {
         let answers = |v: &EdgeVerdict| {
             [0, 1].map(|k| {
                 (v.candidates(2) & (1 << k) != 0)
-                    .then(|| v.finish(k, &ray, &s, &packet))
+                    .then(|| v.finish::<false>(k, &ray, &s, &packet))
                     .flatten()
             })
         };
@@ -677,7 +683,7 @@ mod tests {
                 assert_eq!(packed.triangle(k).map(f32x3_bits), tri.map(f32x3_bits));
                 let scalar = intersect_triangle_sheared(&ray, &s, tri[0], tri[1], tri[2]);
                 let lane = if verdict.candidates(count) & (1 << k) != 0 {
-                    verdict.finish(k, &ray, &s, &packed)
+                    verdict.finish::<false>(k, &ray, &s, &packed)
                 } else {
                     rejected += 1;
                     None

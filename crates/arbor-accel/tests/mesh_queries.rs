@@ -2,10 +2,8 @@
 //! crossing rule on closed meshes: counts through shared edges and vertices
 //! even, inside/outside and signed distance against analytic shapes.
 
-use arbor_accel::{
-    intersect_triangle_owned, intersect_triangle_sheared, AccelKind, MeshAccel, MeshHit, Ray,
-    RayShear, Vec3,
-};
+use arbor_accel::numerics::{intersect_triangle_owned, intersect_triangle_sheared, RayShear};
+use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, Vec3};
 use glam::DVec3;
 use proptest::prelude::*;
 

@@ -11,10 +11,8 @@
 use std::hint::black_box;
 use std::path::PathBuf;
 
-use arbor_accel::{
-    intersect_triangle_sheared, Accel, AccelKind, Accelerator, NoCounters, Ray, RayShear,
-    TriangleMesh, Vec3,
-};
+use arbor_accel::numerics::{intersect_triangle_sheared, RayShear};
+use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
 /// Where the shared data lives.

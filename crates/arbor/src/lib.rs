@@ -5,6 +5,27 @@
 //! [`surface`]s), [`flatten`] compiles it into primitives, [`tracer`] puts an
 //! acceleration structure from `arbor-accel` over them, [`render`] shades
 //! camera rays into a [`film::Film`], which is written as PNG or EXR.
+//!
+//! ```
+//! use std::sync::atomic::AtomicBool;
+//!
+//! use arbor::flatten::Flattened;
+//! use arbor::tracer::Tracer;
+//! use arbor_accel::AccelKind;
+//!
+//! // The built-in classroom (what `arbor render` shows without a scene),
+//! // made small so the example runs quickly.
+//! let mut scene = arbor::default_scene::classroom();
+//! (scene.width, scene.height) = (32, 20);
+//! // Flatten the scene graph (instances stay shared) and accelerate it.
+//! let flat = Flattened::new(&scene, arbor::flatten::DEFAULT_MAX_PLACEMENTS)?;
+//! let tracer = Tracer::from_flattened(flat, AccelKind::DEFAULT);
+//! // Render every pixel, with no progress report and no way to cancel.
+//! let film = arbor::render::render(&scene, &tracer, &|_| {}, &AtomicBool::new(false))
+//!     .expect("not cancelled");
+//! assert_eq!((film.width(), film.height()), (32, 20));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod camera;
 pub mod compare;

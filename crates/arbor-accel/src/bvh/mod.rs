@@ -14,14 +14,13 @@ mod topdown;
 mod triangles;
 mod wide;
 
-pub(crate) use packet::looks_coherent;
-pub use packet::{one_octant, PACKET};
-pub use triangles::TriangleBvh;
+pub(crate) use packet::{looks_coherent, PACKET};
+pub(crate) use triangles::TriangleBvh;
 pub use wide::WideBvh;
 
 use std::mem::MaybeUninit;
 
-use glam::{Vec3, Vec3A, Vec4};
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 use crate::aabb::widen_exit;
 use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
@@ -149,9 +148,10 @@ impl Default for BvhParams {
 }
 
 /// A primitive during the build: its box in SIMD lanes, with the primitive
-/// id's bits parked in `min.w`. Arithmetic on the `w` lanes yields junk that
-/// is never read; the id is only ever read from a stored, copied `Ref`, and
-/// copies keep bits intact.
+/// id's bits parked in `min.w`. Min, max and adds on the `w` lanes yield
+/// junk that is never read, but no multiply may see the id (see
+/// [`Ref::centroid4`]); the id is only ever read from a stored, copied
+/// `Ref`, and copies keep bits intact.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Ref {
     pub min: Vec4,
@@ -180,11 +180,15 @@ impl Ref {
         Aabb::new(self.min.truncate(), self.max.truncate())
     }
 
-    /// Centre of the box (`w` is junk), halved before adding so that huge
+    /// Centre of the box (`w` is 0), halved before adding so that huge
     /// boxes cannot overflow.
     #[inline(always)]
     pub fn centroid4(&self) -> Vec4 {
-        self.min * 0.5 + self.max * 0.5
+        // The id lane is cleared before the multiply: most ids are subnormal
+        // as floats, and Intel cores multiply subnormals through a microcode
+        // assist of a hundred-odd cycles (AMD's at full speed).
+        let min = Vec4::select(BVec4A::new(true, true, true, false), self.min, Vec4::ZERO);
+        min * 0.5 + self.max * 0.5
     }
 
     /// Centre of the box.
@@ -693,5 +697,93 @@ mod tests {
             });
             assert_eq!(n, 100);
         }
+    }
+
+    #[test]
+    fn centroids_carry_no_id_bits() {
+        // The id lane must stay out of the centroid's arithmetic (subnormal
+        // ids are slow to multiply on some CPUs), and the centre must not
+        // change for it.
+        let b = Aabb::new(Vec3::new(-1.0, 2.0, 0.5), Vec3::new(3.0, 2.0, 1.5));
+        for id in [1, 12_345, 1 << 22, u32::MAX] {
+            let c = Ref::new(id, &b).centroid4();
+            assert_eq!(c.w.to_bits(), 0, "id {id}");
+            assert_eq!(c.truncate(), Vec3::new(1.0, 2.0, 1.0), "id {id}");
+        }
+    }
+
+    /// FNV-1a over every node's fields and the leaf order: any difference in
+    /// the tree changes it.
+    fn fingerprint(bvh: &Bvh) -> u64 {
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        let words = bvh.nodes().iter().flat_map(|n| {
+            let f = [n.min.x, n.min.y, n.min.z, n.max.x, n.max.y, n.max.z];
+            f.map(f32::to_bits).into_iter().chain([n.offset, n.count])
+        });
+        for w in words.chain(bvh.prim_indices().iter().copied()) {
+            for byte in w.to_le_bytes() {
+                h = (h ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+            }
+        }
+        h
+    }
+
+    /// `n` small boxes along a random walk (neighbours in the list are
+    /// neighbours in space, as on a mesh) or scattered through a cube, from
+    /// exact arithmetic only, so every platform builds the same boxes.
+    fn boxes(n: usize, walk: bool, seed: u64) -> Vec<Aabb> {
+        let mut next = crate::util::unit_sequence(seed);
+        let mut p = Vec3::ZERO;
+        (0..n)
+            .map(|_| {
+                let r = Vec3::new(next(), next(), next());
+                p = if walk { p + (r - 0.5) * 0.01 } else { r };
+                let size = Vec3::new(next(), next(), next()) * 0.004;
+                Aabb::new(p - size, p + size)
+            })
+            .collect()
+    }
+
+    /// `n` boxes around the origin, a third of their coordinates exactly 0
+    /// or -0: which zero a box keeps depends on the order boxes are merged.
+    fn zero_boxes(n: usize, seed: u64) -> Vec<Aabb> {
+        let mut next = crate::util::unit_sequence(seed);
+        let mut coord = |sign: f32| match next() {
+            u if u < 0.15 => 0.0,
+            u if u < 0.3 => -0.0,
+            _ => sign * 0.01 * next(),
+        };
+        (0..n)
+            .map(|_| {
+                let lo = Vec3::new(coord(-1.0), coord(-1.0), coord(-1.0));
+                Aabb::new(lo, Vec3::new(coord(1.0), coord(1.0), coord(1.0)))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn binned_sah_trees_are_pinned() {
+        // Speed work on the binned builder must keep its trees bit for bit
+        // (same nodes, same leaf order). The inputs are large enough for the
+        // parallel, sampled and small-node paths; a deliberate change of the
+        // trees updates these values.
+        let block4 = BvhParams {
+            leaf_block: 4,
+            ..BvhParams::default()
+        };
+        let cases = [
+            (
+                boxes(60_000, true, 3),
+                BvhParams::default(),
+                0xfc77_e68b_01de_fb16,
+            ),
+            (boxes(60_000, true, 3), block4, 0xdfc0_37e2_6f3b_1fdc),
+            (boxes(60_000, false, 5), block4, 0x0b3a_8117_c82f_8d09),
+            (zero_boxes(40_000, 7), block4, 0x3a0e_3a85_0ad9_a87f),
+        ];
+        let got = cases
+            .each_ref()
+            .map(|(b, params, _)| fingerprint(&Bvh::build(b, BvhBuilder::BinnedSah, params)));
+        assert_eq!(got, cases.each_ref().map(|c| c.2), "{got:#018x?}");
     }
 }

@@ -24,8 +24,8 @@ use crate::triangle_lanes::pair;
 use crate::triangle_lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
 use crate::util::prefetch;
 use crate::{
-    intersect_triangle_sheared, AccelStats, Accelerator, Counters, MeshHit, Ray, RayShear,
-    TriangleHit, TriangleMesh,
+    intersect_triangle_owned, intersect_triangle_sheared, AccelStats, Accelerator, Counters,
+    MeshHit, Ray, RayShear, TriangleHit, TriangleMesh,
 };
 
 /// Leaves packed by one parallel task: a leaf is one or two packets, too
@@ -42,8 +42,6 @@ pub struct TriangleBvh {
     packets: Vec<Tri4>,
     /// Triangles without a finite box (offered to every ray), with their ids.
     unbounded: Vec<(u32, [Vec3; 3])>,
-    /// Triangles indexed (in packets or unbounded).
-    len: usize,
 }
 
 /// Packs the triangles of every leaf (`leaves[i]` holds slots
@@ -136,7 +134,6 @@ impl TriangleBvh {
             .iter()
             .map(|&p| (p, mesh.triangle(p as usize)))
             .collect();
-        let len = slots.len() + unbounded.len();
         let bvh = bvh.into_leaf_storage(|first| {
             let i = leaves.partition_point(|&(f, _)| f < first);
             packet_of[i]
@@ -145,7 +142,6 @@ impl TriangleBvh {
             bvh,
             packets,
             unbounded,
-            len,
         }
     }
 
@@ -178,10 +174,17 @@ impl TriangleBvh {
             #[inline(always)]
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
-                self.test_leaf::<false, C>(first, count, ray, shear, counters, |prim, hit, ray| {
-                    keep(prim, hit, ray);
-                    false
-                });
+                self.test_leaf::<false, false, C>(
+                    first,
+                    count,
+                    ray,
+                    shear,
+                    counters,
+                    |prim, hit, ray| {
+                        keep(prim, hit, ray);
+                        false
+                    },
+                );
             },
             |first| prefetch(&self.packets[first]),
         );
@@ -239,13 +242,20 @@ impl TriangleBvh {
                 let ray = &mut each[lane];
                 let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(ray));
                 let best = &mut best[lane];
-                self.test_leaf::<false, C>(first, count, ray, shear, counters, |prim, hit, ray| {
-                    if best.is_none_or(|b| hit.t < b.hit.t) {
-                        *best = Some(MeshHit { prim, hit });
-                    }
-                    ray.tmax = ray.tmax.min(hit.t);
-                    false
-                });
+                self.test_leaf::<false, false, C>(
+                    first,
+                    count,
+                    ray,
+                    shear,
+                    counters,
+                    |prim, hit, ray| {
+                        if best.is_none_or(|b| hit.t < b.hit.t) {
+                            *best = Some(MeshHit { prim, hit });
+                        }
+                        ray.tmax = ray.tmax.min(hit.t);
+                        false
+                    },
+                );
                 ray.tmax
             },
         );
@@ -271,34 +281,55 @@ impl TriangleBvh {
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
                 let mut ray = *ray;
-                self.test_leaf::<true, C>(first, count, &mut ray, shear, counters, |_, _, _| true)
+                self.test_leaf::<true, false, C>(
+                    first,
+                    count,
+                    &mut ray,
+                    shear,
+                    counters,
+                    |_, _, _| true,
+                )
             },
             |first| prefetch(&self.packets[first]),
         )
     }
 
-    /// Offers `f` the id of every triangle in every leaf the ray enters over
-    /// its whole interval (which is never shrunk), and of every unbounded
-    /// triangle; each once.
-    pub(crate) fn for_each_candidate<C: Counters>(
+    /// Calls `f` for every crossing of the surface within the ray's whole
+    /// interval (which is never shrunk), each reported by one triangle
+    /// ([`crate::numerics::intersect_triangle_owned`]), in traversal order.
+    pub(crate) fn for_each_crossing<C: Counters>(
         &self,
         ray: &Ray,
         counters: &mut C,
-        mut f: impl FnMut(u32),
+        mut f: impl FnMut(MeshHit),
     ) {
-        for &(prim, _) in &self.unbounded {
+        let mut shear: Option<RayShear> = None;
+        for &(prim, [a, b, c]) in &self.unbounded {
             counters.test();
-            f(prim);
+            let shear = shear.get_or_insert_with(|| RayShear::new(ray));
+            if let Some(hit) = intersect_triangle_owned(ray, shear, a, b, c) {
+                f(MeshHit { prim, hit });
+            }
         }
         self.bvh.closest_leaves(
             *ray,
             counters,
-            |first, count, _, counters| {
-                let packets = &self.packets[first..first + count.div_ceil(LANES)];
-                for id in packets.iter().flat_map(|p| p.ids).take(count) {
-                    counters.test();
-                    f(id);
-                }
+            // Inlined into the AVX2 traversal, so the lane test is compiled
+            // for AVX2 too (out of line, its intrinsics became calls).
+            #[inline(always)]
+            |first, count, ray, counters| {
+                let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
+                self.test_leaf::<false, true, C>(
+                    first,
+                    count,
+                    ray,
+                    shear,
+                    counters,
+                    |prim, hit, _| {
+                        f(MeshHit { prim, hit });
+                        false
+                    },
+                );
             },
             |first| prefetch(&self.packets[first]),
         );
@@ -311,8 +342,10 @@ impl TriangleBvh {
     /// `ANY_HIT`, at the first triangle certainly hit inside the interval
     /// (before `on_hit` and without the exact distance: see
     /// `EdgeVerdict::any_hit_certainty`).
+    /// With `OWNED`, each crossing is reported by one triangle only (see
+    /// [`crate::numerics::intersect_triangle_owned`]).
     #[inline(always)]
-    fn test_leaf<const ANY_HIT: bool, C: Counters>(
+    fn test_leaf<const ANY_HIT: bool, const OWNED: bool, C: Counters>(
         &self,
         first: usize,
         count: usize,
@@ -334,16 +367,30 @@ impl TriangleBvh {
                 let pair = [&packets[i], &packets[i + 1]];
                 // SAFETY: the CPU has AVX2.
                 let [v0, v1] = unsafe { pair::edge_stage_pair(ray, shear, pair, second) };
-                if finish::<ANY_HIT, C>(&v0, pair[0], lanes, ray, shear, counters, &mut on_hit)
-                    || finish::<ANY_HIT, C>(&v1, pair[1], second, ray, shear, counters, &mut on_hit)
-                {
+                if finish::<ANY_HIT, OWNED, C>(
+                    &v0,
+                    pair[0],
+                    lanes,
+                    ray,
+                    shear,
+                    counters,
+                    &mut on_hit,
+                ) || finish::<ANY_HIT, OWNED, C>(
+                    &v1,
+                    pair[1],
+                    second,
+                    ray,
+                    shear,
+                    counters,
+                    &mut on_hit,
+                ) {
                     return true;
                 }
                 i += 2;
                 continue;
             }
             let verdict = edge_stage(ray, shear, &packets[i], lanes);
-            if finish::<ANY_HIT, C>(
+            if finish::<ANY_HIT, OWNED, C>(
                 &verdict,
                 &packets[i],
                 lanes,
@@ -365,7 +412,7 @@ impl TriangleBvh {
 /// `true` as soon as `on_hit` does. A function rather than a closure so that
 /// it can be forced inline into the traversal.
 #[inline(always)]
-fn finish<const ANY_HIT: bool, C: Counters>(
+fn finish<const ANY_HIT: bool, const OWNED: bool, C: Counters>(
     verdict: &EdgeVerdict,
     packet: &Tri4,
     lanes: usize,
@@ -392,7 +439,7 @@ fn finish<const ANY_HIT: bool, C: Counters>(
                 None => {}
             }
         }
-        if let Some(hit) = verdict.finish(k, ray, shear, packet) {
+        if let Some(hit) = verdict.finish::<OWNED>(k, ray, shear, packet) {
             if on_hit(packet.ids[k], hit, ray) {
                 return true;
             }
@@ -410,13 +457,16 @@ impl TriangleBvh {
         stats
     }
 
-    /// Number of triangles indexed (those of the mesh that can be hit).
-    pub fn len(&self) -> usize {
-        self.len
+    /// Number of triangles indexed (in packets or unbounded).
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        let packed = self.packets.iter().flat_map(|p| p.ids);
+        packed.filter(|&id| id != Tri4::NO_ID).count() + self.unbounded.len()
     }
 
     /// Whether no triangle is indexed.
-    pub fn is_empty(&self) -> bool {
+    #[cfg(test)]
+    fn is_empty(&self) -> bool {
         self.len() == 0
     }
 }

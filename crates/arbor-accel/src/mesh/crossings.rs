@@ -9,7 +9,7 @@
 use rayon::prelude::*;
 
 use super::{MeshAccel, MeshHit, PER_TASK};
-use crate::{intersect_triangle_owned, Counters, NoCounters, Ray, RayShear};
+use crate::{Counters, NoCounters, Ray};
 
 /// Every hit of a batch of rays, in ray order: ray `i`'s hits are the
 /// `counts[i]` entries of `hits` after those of the rays before it.
@@ -54,13 +54,7 @@ impl MeshAccel {
     /// into `counters`.
     pub fn all_hits_into<C: Counters>(&self, ray: &Ray, counters: &mut C, out: &mut Vec<MeshHit>) {
         let start = out.len();
-        let shear = RayShear::new(ray);
-        self.for_each_candidate(ray, counters, |prim| {
-            let [a, b, c] = self.triangle(prim);
-            if let Some(hit) = intersect_triangle_owned(ray, &shear, a, b, c) {
-                out.push(MeshHit { prim, hit });
-            }
-        });
+        self.for_each_crossing(ray, counters, |hit| out.push(hit));
         let mine = &mut out[start..];
         mine.sort_unstable_by(|x, y| x.hit.t.total_cmp(&y.hit.t).then(x.prim.cmp(&y.prim)));
         if self.offers_repeats() {
@@ -91,12 +85,8 @@ impl MeshAccel {
             self.all_hits_into(ray, counters, &mut hits);
             return hits.len() as u32;
         }
-        let shear = RayShear::new(ray);
         let mut n = 0;
-        self.for_each_candidate(ray, counters, |prim| {
-            let [a, b, c] = self.triangle(prim);
-            n += u32::from(intersect_triangle_owned(ray, &shear, a, b, c).is_some());
-        });
+        self.for_each_crossing(ray, counters, |_| n += 1);
         n
     }
 

@@ -19,8 +19,9 @@ use std::sync::OnceLock;
 use rayon::prelude::*;
 
 use crate::{
-    intersect_triangle_sheared, Accel, AccelKind, AccelParams, AccelStats, Accelerator, Bvh,
-    Counters, NoCounters, Ray, RayShear, TriangleBvh, TriangleHit, TriangleMesh, Vec3,
+    intersect_triangle_owned, intersect_triangle_sheared, Accel, AccelKind, AccelParams,
+    AccelStats, Accelerator, Bvh, Counters, NoCounters, Ray, RayShear, TriangleBvh, TriangleHit,
+    TriangleMesh, Vec3,
 };
 
 pub use closest_point::ClosestPoint;
@@ -313,20 +314,37 @@ impl MeshAccel {
             .collect()
     }
 
-    /// Offers `f` every triangle the structure yields for `ray` over its whole
-    /// interval (never shrunk): each triangle whose box the ray enters, at
-    /// least once (more than once where [`MeshAccel::offers_repeats`]).
-    fn for_each_candidate<C: Counters>(&self, ray: &Ray, counters: &mut C, mut f: impl FnMut(u32)) {
+    /// Calls `f` for every crossing of the surface within `ray`'s whole
+    /// interval, each reported by the one triangle that owns it
+    /// ([`intersect_triangle_owned`]), in no particular order; more than
+    /// once where [`MeshAccel::offers_repeats`].
+    fn for_each_crossing<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        mut f: impl FnMut(MeshHit),
+    ) {
         match &self.index {
-            Index::Wide(bvh) => bvh.for_each_candidate(ray, counters, f),
-            Index::Generic(accel, _) => accel.closest(ray, counters, |prim, _| {
-                f(prim);
-                None
-            }),
+            // Four triangles at a time, as the closest-hit query.
+            Index::Wide(bvh) => bvh.for_each_crossing(ray, counters, f),
+            Index::Generic(accel, tris) => {
+                let shear = RayShear::new(ray);
+                // The callback never shrinks the ray, so every triangle whose
+                // box the ray enters is offered; each is tested against the
+                // whole ray (whatever part of it a cell passes), so a repeated
+                // offer gives the same answer.
+                accel.closest(ray, counters, |prim, _| {
+                    let [a, b, c] = tris[prim as usize];
+                    if let Some(hit) = intersect_triangle_owned(ray, &shear, a, b, c) {
+                        f(MeshHit { prim, hit });
+                    }
+                    None
+                })
+            }
         }
     }
 
-    /// Whether [`MeshAccel::for_each_candidate`] may offer a triangle more
+    /// Whether [`MeshAccel::for_each_crossing`] may report a triangle more
     /// than once (spatial subdivision places a triangle in every cell or
     /// leaf it overlaps).
     fn offers_repeats(&self) -> bool {
