@@ -1,0 +1,20 @@
+"""arbor: exact, watertight ray casting against triangle meshes.
+
+The queries are those of arbor's Rust library (``arbor-accel``), run in
+parallel with the GIL released, over NumPy arrays::
+
+    import numpy as np, arbor
+    mesh = arbor.Mesh(vertices, faces)            # (n, 3) floats, (m, 3) ints
+    hits = mesh.intersect(origins, directions)    # dict of arrays
+    hits["t"], hits["triangle"]                   # inf / -1 on a miss
+
+``arbor.load_mesh(path)`` reads a mesh file with the loader of
+``arbor trace``. ``arbor.trimesh.RayMeshIntersector`` is a drop-in ray
+intersector for trimesh and ``arbor.RaycastingScene`` follows Open3D's
+``RaycastingScene``.
+"""
+
+from ._arbor import Mesh, load_mesh
+from .raycasting import RaycastingScene
+
+__all__ = ["Mesh", "load_mesh", "RaycastingScene"]

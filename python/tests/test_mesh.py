@@ -1,0 +1,167 @@
+"""arbor.Mesh: construction, attributes and the ray queries, against a
+float64 brute force and against ``arbor trace`` bit for bit."""
+
+import numpy as np
+import pytest
+
+import arbor
+from helpers import box, brute_hits, random_rays, random_soup, trace_cli, write_obj
+
+
+@pytest.fixture
+def rng():
+    return np.random.default_rng(7)
+
+
+def test_attributes_hold_the_mesh(rng):
+    vertices, faces = random_soup(rng, 10)
+    mesh = arbor.Mesh(vertices, faces)
+    assert mesh.vertices.dtype == np.float32 and mesh.vertices.shape == (30, 3)
+    np.testing.assert_array_equal(mesh.vertices, vertices.astype(np.float32))
+    assert mesh.faces.dtype == np.int64
+    np.testing.assert_array_equal(mesh.faces, faces)
+    assert len(mesh) == 10 and mesh.accel == "bvh-wide"
+    assert "10 triangles" in repr(mesh)
+
+
+def test_float32_float64_lists_and_strided_inputs_agree(rng):
+    vertices, faces = random_soup(rng)
+    origins, directions = random_rays(rng)
+    reference = arbor.Mesh(vertices.astype(np.float32), faces.astype(np.uint32))
+    expected = reference.intersect(origins.astype(np.float32), directions.astype(np.float32))
+    # float64, Fortran order, a strided view and plain lists: same rays.
+    wide = np.zeros((len(origins), 6))
+    wide[:, ::2] = origins
+    variants = [
+        (vertices, faces, origins, directions),
+        (np.asfortranarray(vertices), faces.astype(np.int32), wide[:, ::2], directions),
+        (vertices.tolist(), faces.tolist(), origins.tolist(), directions.tolist()),
+    ]
+    for v, f, o, d in variants:
+        got = arbor.Mesh(v, f).intersect(o, d)
+        for key in expected:
+            np.testing.assert_array_equal(got[key], expected[key], err_msg=key)
+
+
+def test_intersect_matches_brute_force(rng):
+    vertices, faces = random_soup(rng)
+    origins, directions = random_rays(rng)
+    mesh = arbor.Mesh(vertices.astype(np.float32), faces)
+    # The brute force sees the same float32 values the library does.
+    v32 = vertices.astype(np.float32)
+    o32, d32 = origins.astype(np.float32), directions.astype(np.float32)
+    hits = mesh.intersect(o32, d32)
+    brute = brute_hits(v32, faces, o32, d32)
+    assert (hits["triangle"] >= 0).sum() > 100  # the test is not all misses
+    for i, (t, tri) in enumerate(brute):
+        if len(t) == 0:
+            assert hits["triangle"][i] == -1 and hits["t"][i] == np.inf
+            assert np.isnan(hits["u"][i]) and np.isnan(hits["point"][i]).all()
+            continue
+        assert hits["triangle"][i] == tri[0]
+        assert hits["t"][i] == pytest.approx(t[0], rel=1e-5)
+    hit = hits["triangle"] >= 0
+    # point: on the ray at t, and equal to the barycentric combination.
+    np.testing.assert_allclose(
+        hits["point"][hit], o32[hit] + hits["t"][hit, None] * d32[hit], rtol=1e-5, atol=1e-5
+    )
+    tri = v32[faces[hits["triangle"][hit]]].astype(np.float64)
+    u, v = hits["u"][hit, None], hits["v"][hit, None]
+    np.testing.assert_allclose(
+        hits["point"][hit], (1 - u - v) * tri[:, 0] + u * tri[:, 1] + v * tri[:, 2], atol=1e-5
+    )
+    # normal: the unit geometric normal of the hit triangle.
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    np.testing.assert_allclose(hits["normal"][hit], n / np.linalg.norm(n, axis=1, keepdims=True), atol=1e-6)
+
+
+def test_intersect_and_occluded_equal_arbor_trace(rng, tmp_path):
+    vertices, faces = random_soup(rng, 200)
+    origins, directions = random_rays(rng, 2000)
+    o32, d32 = origins.astype(np.float32), directions.astype(np.float32)
+    tmin = rng.random(len(o32)).astype(np.float32)
+    tmax = (tmin + 4 * rng.random(len(o32))).astype(np.float32)
+    path = tmp_path / "soup.obj"
+    write_obj(path, vertices, faces)
+    mesh = arbor.load_mesh(path)
+    np.testing.assert_array_equal(mesh.vertices, vertices.astype(np.float32))
+    np.testing.assert_array_equal(mesh.faces, faces)
+    hits = mesh.intersect(o32, d32, tmin, tmax)
+    t, tri, u, v = trace_cli(tmp_path, path, o32, d32, tmin, tmax)
+    assert (tri >= 0).sum() > 200
+    np.testing.assert_array_equal(hits["triangle"], tri)
+    np.testing.assert_array_equal(hits["t"], t)
+    hit = tri >= 0
+    np.testing.assert_array_equal(hits["u"][hit], u[hit])
+    np.testing.assert_array_equal(hits["v"][hit], v[hit])
+    blocked = trace_cli(tmp_path, path, o32, d32, tmin, tmax, occluded=True)
+    np.testing.assert_array_equal(mesh.occluded(o32, d32, tmin, tmax), blocked)
+
+
+def test_tmin_and_tmax_scalars_and_arrays():
+    vertices, faces = box()
+    mesh = arbor.Mesh(vertices, faces)
+    origins = np.array([[0.0, 0.0, -3.0]] * 3)
+    directions = np.array([[0.0, 0.0, 1.0]] * 3)
+    # The box's faces are at t = 2 (entry) and t = 4 (exit).
+    np.testing.assert_array_equal(mesh.intersect(origins, directions)["t"], [2, 2, 2])
+    np.testing.assert_array_equal(mesh.intersect(origins, directions, tmin=3.0)["t"], [4, 4, 4])
+    got = mesh.intersect(origins, directions, tmin=np.array([0, 2.5, 4.5]), tmax=np.float32(5))
+    np.testing.assert_array_equal(got["t"], [2, 4, np.inf])
+    np.testing.assert_array_equal(got["triangle"] >= 0, [True, True, False])
+    # tmin and tmax bound the interval inclusively.
+    np.testing.assert_array_equal(mesh.intersect(origins, directions, tmin=2.0, tmax=2.0)["t"], [2, 2, 2])
+    np.testing.assert_array_equal(
+        mesh.occluded(origins, directions, tmax=[1.0, 2.0, 3.0]), [False, True, True]
+    )
+    np.testing.assert_array_equal(mesh.occluded(origins, directions, tmin=4.5), [False] * 3)
+
+
+def test_occluded_agrees_with_intersect(rng):
+    vertices, faces = random_soup(rng)
+    origins, directions = random_rays(rng)
+    mesh = arbor.Mesh(vertices, faces)
+    tmax = rng.random(len(origins)) * 4
+    hits = mesh.intersect(origins, directions, tmax=tmax)
+    blocked = mesh.occluded(origins, directions, tmax=tmax)
+    assert blocked.dtype == bool and 0 < blocked.sum() < len(blocked)
+    np.testing.assert_array_equal(blocked, hits["triangle"] >= 0)
+
+
+def test_empty_mesh_and_no_rays():
+    empty = arbor.Mesh(np.zeros((0, 3)), np.zeros((0, 3), np.int64))
+    hits = empty.intersect([[0.0, 0, 0]], [[0.0, 0, 1]])
+    assert hits["triangle"].tolist() == [-1] and hits["t"].tolist() == [np.inf]
+    assert not empty.occluded([[0.0, 0, 0]], [[0.0, 0, 1]]).any()
+    mesh = arbor.Mesh(*box())
+    none = mesh.intersect(np.zeros((0, 3)), np.zeros((0, 3)))
+    assert none["t"].shape == (0,) and none["point"].shape == (0, 3)
+
+
+def test_queries_release_the_gil(rng):
+    """Another Python thread runs while a query works: it counts how often it
+    got to run between the query's start and end, which with the GIL held
+    throughout would be (almost) never."""
+    import threading
+
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=5)
+    origins, directions = random_rays(rng, 1_000_000)
+    mesh = arbor.Mesh(sphere.vertices, sphere.faces)
+    started, done = threading.Event(), threading.Event()
+
+    def query():
+        started.set()
+        mesh.intersect(origins, directions)
+        done.set()
+
+    worker = threading.Thread(target=query)
+    worker.start()
+    started.wait()
+    turns = 0
+    while not done.is_set():
+        turns += 1
+        done.wait(0.0001)
+    worker.join()
+    assert turns > 50
