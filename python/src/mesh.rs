@@ -271,7 +271,7 @@ impl Mesh {
 pub fn load_mesh(py: Python<'_>, path: PathBuf, accel: &str) -> PyResult<Mesh> {
     let kind = accel_kind(accel)?;
     let data = py
-        .detach(|| arbor::mesh::load_mesh_file(&path))
+        .detach(|| arbor::load::load_ray_mesh(&path))
         .map_err(|e| PyOSError::new_err(e.to_string()))?;
     Mesh::build(py, data.positions, data.triangles, kind)
 }

@@ -21,8 +21,8 @@ const NONE: u32 = u32::MAX;
 /// Arguments shared by the point queries.
 #[derive(Args, Debug)]
 pub struct PointArgs {
-    /// Triangle mesh: a Cornell `.msh` file or a Wavefront `.obj` (polygons
-    /// split as fans, triangles numbered in file order).
+    /// Triangle mesh: a Cornell `.msh`, a Wavefront `.obj` (polygons split
+    /// as fans), a `.ply` or an `.stl`; triangles numbered in file order.
     #[arg(long, value_name = "FILE")]
     pub mesh: PathBuf,
     /// Points: 16-byte little-endian records (x, y, z, max_distance as f32).

@@ -47,8 +47,8 @@ impl Query {
 /// Arguments of `arbor trace`.
 #[derive(Args, Debug)]
 pub struct TraceArgs {
-    /// Triangle mesh: a Cornell `.msh` file or a Wavefront `.obj` (polygons
-    /// split as fans, triangles numbered in file order).
+    /// Triangle mesh: a Cornell `.msh`, a Wavefront `.obj` (polygons split
+    /// as fans), a `.ply` or an `.stl`; triangles numbered in file order.
     #[arg(long, value_name = "FILE")]
     pub mesh: PathBuf,
     /// Rays: 32-byte little-endian records (origin, tnear, direction, tfar).

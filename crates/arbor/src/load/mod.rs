@@ -76,14 +76,17 @@ pub fn load_mesh(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
 
 /// Reads a mesh file for batch ray casting: `.msh` is the Cornell format,
 /// `.obj` is read with [`ObjRule::Fan`] so that triangles are numbered as the
-/// ray/hit file interface (and Embree's `embree_trace`) number them.
+/// ray/hit file interface (and Embree's `embree_trace`) number them, `.ply`
+/// and `.stl` as stored (faces in file order, PLY polygons as fans).
 pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
     match Format::from_path(path)? {
-        Format::Msh | Format::Obj => Ok(load_mesh(path, ObjRule::Fan)?.mesh),
+        Format::Msh | Format::Obj | Format::Ply | Format::Stl => {
+            Ok(load_mesh(path, ObjRule::Fan)?.mesh)
+        }
         other => Err(LoadError::file(
             path,
             format!(
-                "a .{} file is not a mesh for ray casting; expected a .msh or .obj file",
+                "a .{} file is not a mesh for ray casting; expected a .msh, .obj, .ply or .stl file",
                 other.extension()
             ),
         )),
