@@ -1,10 +1,8 @@
 //! What the batch query commands (`trace`, `inside`, `nearest`) share: the
-//! mesh they load, the record files they read, the answer file they write
-//! atomically, and the timing of repeated runs.
+//! mesh they load, the record files they read, and the timing of repeated
+//! runs. (Their answer files go through [`crate::output`].)
 
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -97,84 +95,5 @@ pub fn mega_per_s(n: usize, ms: f64) -> f64 {
         millis(n as f64 / (ms * 1e3))
     } else {
         0.0
-    }
-}
-
-/// An output file written under a temporary name in the same folder and
-/// renamed into place when complete, so that a failure or interruption never
-/// leaves a partial file under the final name (a rename within one folder is
-/// atomic). The temporary file is removed if the output is dropped unfinished.
-pub struct AtomicOutput {
-    target: PathBuf,
-    temp: PathBuf,
-    file: Option<File>,
-}
-
-impl AtomicOutput {
-    /// Creates the temporary file at once, so an unwritable destination is
-    /// reported before any work is done, and removes it if the process is
-    /// interrupted (Ctrl-C ends the process without running destructors).
-    pub fn create(target: &Path) -> anyhow::Result<Self> {
-        if target.is_dir() {
-            return Err(InputError(format!(
-                "{}: is a directory; expected an output file name",
-                target.display()
-            ))
-            .into());
-        }
-        let name = target
-            .file_name()
-            .ok_or_else(|| {
-                InputError(format!(
-                    "{}: expected an output file name",
-                    target.display()
-                ))
-            })?
-            .to_string_lossy();
-        let temp = target.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-        let file = File::create(&temp).map_err(|e| {
-            InputError(format!(
-                "{}: cannot create the output file: {e}",
-                target.display()
-            ))
-        })?;
-        let interrupted = temp.clone();
-        let _ = ctrlc::set_handler(move || {
-            let _ = std::fs::remove_file(&interrupted);
-            std::process::exit(130);
-        });
-        Ok(AtomicOutput {
-            target: target.to_path_buf(),
-            temp,
-            file: Some(file),
-        })
-    }
-
-    /// Writes `bytes` and moves the file into place.
-    pub fn finish(mut self, bytes: &[u8]) -> anyhow::Result<()> {
-        let Some(file) = self.file.take() else {
-            anyhow::bail!("internal error: output already finished");
-        };
-        let mut w = BufWriter::new(file);
-        w.write_all(bytes)
-            .and_then(|()| w.flush())
-            .with_context(|| format!("cannot write {}", self.temp.display()))?;
-        drop(w);
-        std::fs::rename(&self.temp, &self.target).with_context(|| {
-            format!(
-                "cannot move {} to {}",
-                self.temp.display(),
-                self.target.display()
-            )
-        })?;
-        Ok(())
-    }
-}
-
-impl Drop for AtomicOutput {
-    fn drop(&mut self) {
-        // After a successful rename the temporary name no longer exists and
-        // this fails harmlessly.
-        let _ = std::fs::remove_file(&self.temp);
     }
 }

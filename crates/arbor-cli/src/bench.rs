@@ -633,8 +633,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     print!("{}", markdown(&report));
     if let Some(path) = &args.json {
         let text = json(&report);
-        arbor::film::atomic_write(path, |f| std::io::Write::write_all(f, text.as_bytes()))
-            .with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_text(path, &text)?;
     }
     if let Some(path) = &args.plot {
         plot::draw(&report, path).with_context(|| format!("drawing {}", path.display()))?;

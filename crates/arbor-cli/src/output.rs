@@ -217,6 +217,17 @@ pub fn remove_pending() {
     }
 }
 
+/// For commands with no interrupt handling of their own (the batch
+/// queries): Ctrl-C removes the temporary files being written and exits
+/// with status 130. (A process has one handler: `render` installs its own,
+/// which also calls [`remove_pending`].)
+pub fn remove_pending_on_interrupt() {
+    let _ = ctrlc::set_handler(|| {
+        remove_pending();
+        std::process::exit(130);
+    });
+}
+
 fn lock_pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
     // A panic elsewhere while holding the lock leaves the list usable.
     PENDING.lock().unwrap_or_else(|e| e.into_inner())

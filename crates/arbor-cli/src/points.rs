@@ -2,13 +2,14 @@
 //! triangle mesh, through point files laid out like the ray files of
 //! `shared/peers/FORMAT.md` (formats in docs/queries.md).
 
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use arbor_accel::{AccelKind, MeshAccel, Vec3};
 use clap::Args;
 use serde_json::json;
 
-use crate::batch::{self, f32_at, AtomicOutput};
+use crate::batch::{self, f32_at};
 use crate::InputError;
 
 /// Size of one point record: x, y, z, max_distance, all `f32`.
@@ -122,6 +123,10 @@ fn run(
     let kind = args.accel.unwrap_or(AccelKind::DEFAULT);
     let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
     let repeat = args.repeat as usize;
+    crate::output::remove_pending_on_interrupt();
+    if let Some(path) = &args.out {
+        crate::output::check_writable(path, "--out")?;
+    }
     let (mesh, build_ms) = pool.install(|| {
         let (mesh, ms) = batch::load_and_build(&args.mesh, kind, repeat)?;
         let start = std::time::Instant::now();
@@ -137,7 +142,6 @@ fn run(
         .into());
     }
     let (points, limits) = read_points(&args.points)?;
-    let output = args.out.as_deref().map(AtomicOutput::create).transpose()?;
     if uses_inside {
         warn_if_open(&args.mesh, &mesh);
     }
@@ -145,8 +149,8 @@ fn run(
     let (median, min) = batch::timed(repeat, || {
         answer = pool.install(|| query(&mesh, &points, &limits));
     });
-    if let Some(out) = output {
-        out.finish(&answer.0)?;
+    if let Some(path) = &args.out {
+        crate::output::write_atomic(path, |w| w.write_all(&answer.0))?;
     }
     let summary = json!({
         "tracer": "arbor",

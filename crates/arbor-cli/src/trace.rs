@@ -4,13 +4,14 @@
 //! closest hits and occlusion it answers every hit along each ray and hit
 //! counts (`--query all|count`, formats in docs/queries.md).
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use arbor_accel::{AccelKind, AllHits, MeshAccel, MeshHit, Ray, Vec3};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
-use crate::batch::{self, f32_at, AtomicOutput};
+use crate::batch::{self, f32_at};
 
 /// Size of one ray record: origin, tnear, direction, tfar, all `f32`.
 const RAY_BYTES: usize = 32;
@@ -85,18 +86,21 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
     let kind = args.accel.unwrap_or(AccelKind::DEFAULT);
     let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
     let repeat = args.repeat as usize;
+    crate::output::remove_pending_on_interrupt();
     // Everything the user can get wrong is checked before the slow part.
+    if let Some(path) = &args.hits {
+        crate::output::check_writable(path, "--hits")?;
+    }
     let (mesh, build_ms) = pool.install(|| batch::load_and_build(&args.mesh, kind, repeat))?;
     let rays = read_rays(&args.rays)?;
-    let output = args.hits.as_deref().map(AtomicOutput::create).transpose()?;
 
     // Only the queries are timed (as embree_trace times them): the answer
     // buffer is reused across passes and encoded afterwards.
     let mut answer = Answer::new(query, rays.len());
     let (median, min) = batch::timed(repeat, || pool.install(|| answer.compute(&mesh, &rays)));
     let (bytes, hits) = answer.encode();
-    if let Some(out) = output {
-        out.finish(&bytes)?;
+    if let Some(path) = &args.hits {
+        crate::output::write_atomic(path, |w| w.write_all(&bytes))?;
     }
     let summary = json!({
         "tracer": "arbor",

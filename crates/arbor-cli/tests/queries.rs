@@ -366,7 +366,7 @@ fn bad_point_files_and_meshes_exit_2_without_output() {
             s(&nowhere),
         ],
         &nowhere,
-        "cannot create the output file",
+        "cannot write: the folder",
     );
     let rays = f.file("r.rays", &cube_rays());
     f.fails(

@@ -379,7 +379,7 @@ fn unwritable_output_exits_2() {
         s(&hits),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot create the output file"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot write: the folder"));
 }
 
 #[test]
