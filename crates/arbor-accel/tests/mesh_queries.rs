@@ -4,6 +4,8 @@
 
 use arbor_accel::numerics::{intersect_triangle_owned, intersect_triangle_sheared, RayShear};
 use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, Vec3};
+mod common;
+
 use glam::DVec3;
 use proptest::prelude::*;
 
@@ -186,67 +188,10 @@ proptest! {
     }
 }
 
-/// A closed, consistently oriented icosphere of radius 1 (`levels`
-/// subdivisions of the icosahedron).
+/// A closed, consistently oriented icosphere of radius 1.
 fn icosphere(levels: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let g = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut v: Vec<Vec3> = [
-        (-1.0, g, 0.0),
-        (1.0, g, 0.0),
-        (-1.0, -g, 0.0),
-        (1.0, -g, 0.0),
-        (0.0, -1.0, g),
-        (0.0, 1.0, g),
-        (0.0, -1.0, -g),
-        (0.0, 1.0, -g),
-        (g, 0.0, -1.0),
-        (g, 0.0, 1.0),
-        (-g, 0.0, -1.0),
-        (-g, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut t: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut midpoint = |a: u32, b: u32, v: &mut Vec<Vec3>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                v.push(((v[a as usize] + v[b as usize]) * 0.5).normalize());
-                v.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::new();
-        for [a, b, c] in t {
-            let ab = midpoint(a, b, &mut v);
-            let bc = midpoint(b, c, &mut v);
-            let ca = midpoint(c, a, &mut v);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        t = next;
-    }
-    (v, t)
+    let mesh = common::icosphere(levels);
+    (mesh.vertices, mesh.triangles)
 }
 
 /// The cube `[0, 1]^3` as twelve outward-facing triangles.
