@@ -9,15 +9,9 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn arbor(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run arbor")
-}
+mod support;
+use support::arbor_in as arbor;
 
 const SCENE: &str = r#"<?xml version="1.0"?>
 <scene>

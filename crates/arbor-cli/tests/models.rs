@@ -1,16 +1,10 @@
 //! `arbor render MODEL` through the real binary: a model file becomes a
 //! picture, a broken one a located error with exit status 2 and no file.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::PathBuf;
 
-fn arbor(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run arbor")
-}
+mod support;
+use support::arbor_in as arbor;
 
 /// The assimp test models, or `None` (after saying why) when absent and
 /// `ARBOR_REQUIRE_TEST_DATA=1` is not set.

@@ -5,15 +5,10 @@
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn arbor(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run arbor")
-}
+mod support;
+use support::arbor_in as arbor;
 
 fn ok(o: Output) -> Output {
     assert!(

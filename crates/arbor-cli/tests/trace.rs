@@ -2,9 +2,11 @@
 //! ray files, checked record by record against answers worked out by hand.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use arbor_accel::AccelKind;
+
+mod support;
+use support::{arbor, s};
 
 /// Two shapes along -z from above: triangle 0 is a small right triangle at
 /// z = 0; triangles 1 and 2 are the fan of a large quad at z = -1.
@@ -46,17 +48,6 @@ fn read_hits(path: &Path) -> Vec<Hit> {
             }
         })
         .collect()
-}
-
-fn arbor(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(args)
-        .output()
-        .expect("run arbor")
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// The value of `key` in the one-line JSON summary, as text (a string's
