@@ -16,6 +16,7 @@ mod merge;
 mod output;
 mod overrides;
 mod points;
+mod preview_signal;
 mod render;
 mod trace;
 

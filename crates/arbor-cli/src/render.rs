@@ -88,6 +88,7 @@ pub struct RenderArgs {
 
 /// Runs `arbor render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    crate::preview_signal::install();
     crate::thread_pool(args.threads)?.install(|| render(&args))
 }
 
@@ -263,11 +264,13 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
             }
         }
     };
-    let preview = Preview::new(job, args.preview_every);
+    // Previews for --preview-every and SIGUSR1 (pictures only: a `.part`
+    // output has no picture to show).
+    let preview = Preview::new(job, job.part.is_none());
     let film = std::thread::scope(|threads| {
-        if let Some(every) = args.preview_every {
+        if job.part.is_none() {
             let preview = &preview;
-            threads.spawn(move || preview.keep_writing(every, job));
+            threads.spawn(move || preview.keep_writing(args.preview_every, job));
         }
         let film = render_counted(
             &job.scene,
@@ -399,10 +402,11 @@ fn render_counted(
     }
 }
 
-/// `--preview-every`: the tiles finished so far, written to the output now
-/// and then while the render runs.
+/// `--preview-every` and SIGUSR1: the tiles finished so far, written to
+/// the output now and then while the render runs.
 struct Preview {
-    /// The pixels of the job's region, `None` without `--preview-every`.
+    /// The pixels of the job's region, `None` when no preview can be asked
+    /// for (a `.part` output).
     film: Option<std::sync::Mutex<arbor::film::Film>>,
     /// The region's top-left pixel in the image.
     origin: (u32, u32),
@@ -411,11 +415,11 @@ struct Preview {
 }
 
 impl Preview {
-    fn new(job: &Job, every: Option<f64>) -> Preview {
+    fn new(job: &Job, enabled: bool) -> Preview {
         let r = job.region;
         Preview {
-            film: every
-                .map(|_| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
+            film: enabled
+                .then(|| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
             origin: (r.x0, r.y0),
             done: AtomicBool::new(false),
             written: AtomicBool::new(false),
@@ -441,12 +445,14 @@ impl Preview {
         }
     }
 
-    /// Writes the preview every `every` seconds until [`Preview::stop`].
-    fn keep_writing(&self, every: f64, job: &Job) {
+    /// Writes the preview every `every` seconds (if given) and whenever
+    /// SIGUSR1 asks, until [`Preview::stop`].
+    fn keep_writing(&self, every: Option<f64>, job: &Job) {
         let mut last = Instant::now();
         while !self.done.load(Ordering::Relaxed) {
             std::thread::sleep(std::time::Duration::from_millis(50));
-            if last.elapsed().as_secs_f64() < every {
+            let due = every.is_some_and(|e| last.elapsed().as_secs_f64() >= e);
+            if !(crate::preview_signal::take() || due) {
                 continue;
             }
             last = Instant::now();

@@ -665,3 +665,53 @@ fn preview_appears_while_rendering_and_goes_on_interrupt() {
     let o = case.render(&["--preview-every", "0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+/// SIGUSR1 asks a running render for its picture so far, without
+/// `--preview-every`: a whole, valid picture appears at the output while
+/// the render goes on, and an interrupt removes it again.
+#[cfg(target_os = "linux")]
+#[test]
+fn sigusr1_writes_a_preview() {
+    let case = Case::new(&slow_scene());
+    let out = case.path().join("slow.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(["render", "s.xml", "-q", "--accel", "list", "-o", "slow.png"])
+        .current_dir(case.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id().to_string();
+    let signal = |name: &str| {
+        let status = Command::new("kill").args([name, &pid]).status().unwrap();
+        assert!(status.success());
+    };
+    // The handler is installed before the scene is read; give the process
+    // time to get there, and check that nothing is written unasked.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(child.try_wait().unwrap().is_none(), "finished too soon");
+    assert!(!out.exists(), "a picture appeared before it was asked for");
+    signal("-USR1");
+    // A deadline only so that a broken preview fails instead of hanging.
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let mut seen = None;
+    while seen.is_none() && std::time::Instant::now() < deadline {
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "ended before writing a preview (SIGUSR1 not caught?)"
+        );
+        if out.exists() {
+            seen = Some(image::open(&out).expect("a whole, valid PNG"));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let img = seen.expect("no preview appeared");
+    assert_eq!((img.width(), img.height()), (600, 400));
+    signal("-INT");
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        stderr(&o).contains("interrupted: no image written"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "the preview was left behind");
+}
