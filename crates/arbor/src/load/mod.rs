@@ -191,9 +191,19 @@ mod tests {
         )
         .unwrap();
         assert_eq!(load_ray_mesh(&msh).unwrap().triangles, vec![[0, 1, 2]]);
-        let other = dir.path().join("t.ply");
-        std::fs::write(&other, "ply\n").unwrap();
+        // PLY and STL are read too (faces in file order).
+        let ply = dir.path().join("t.ply");
+        std::fs::write(
+            &ply,
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        )
+        .unwrap();
+        assert_eq!(load_ray_mesh(&ply).unwrap().triangles, vec![[0, 1, 2]]);
+        let other = dir.path().join("t.gltf");
+        std::fs::write(&other, "{}").unwrap();
         let e = load_ray_mesh(&other).unwrap_err();
-        assert!(e.message.contains(".msh or .obj"), "{e}");
+        assert!(e.message.contains(".msh, .obj, .ply or .stl"), "{e}");
     }
 }
