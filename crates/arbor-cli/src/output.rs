@@ -91,11 +91,14 @@ pub fn stage(
 ) -> anyhow::Result<Staged> {
     let cannot = |e: io::Error| anyhow::anyhow!("{}: cannot write: {e}", path.display());
     let name = path.file_name().unwrap_or_default().to_string_lossy();
-    let file = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempfile_in(folder_of(path))
-        .map_err(cannot)?;
+    let prefix = format!(".{name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // A temporary file is private (0600) by default; the output it becomes
+    // gets what any new file gets (0666 less the umask), as before.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let file = builder.tempfile_in(folder_of(path)).map_err(cannot)?;
     let staged = Staged {
         target: path.to_path_buf(),
         _pending: Pending::new(file.path()),
@@ -236,6 +239,20 @@ fn lock_pending() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Outputs are not left private to the user as temporary files are:
+    /// others may read them (under the usual umask 022 of tests and CI).
+    #[cfg(unix)]
+    #[test]
+    fn outputs_get_ordinary_permissions() {
+        use std::os::unix::fs::PermissionsExt;
+        let _turn = serial();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.txt");
+        write_text(&path, "x").unwrap();
+        let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+        assert_eq!(mode & 0o044, 0o044, "mode {mode:o}");
+    }
 
     /// The pending list is global: tests that look at it take turns.
     static SERIAL: Mutex<()> = Mutex::new(());
