@@ -609,6 +609,26 @@ fn hostile_inputs_fail_fast() {
     }
 }
 
+/// Waits until the running render `child` has written `out`, asserting
+/// (with `ended`) that it is still running meanwhile; returns the picture,
+/// which must be whole and valid. A deadline only so that a broken preview
+/// fails instead of hanging.
+fn wait_for_preview(
+    child: &mut std::process::Child,
+    out: &Path,
+    ended: &str,
+) -> image::DynamicImage {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while std::time::Instant::now() < deadline {
+        assert!(child.try_wait().unwrap().is_none(), "{ended}");
+        if out.exists() {
+            return image::open(out).expect("a whole, valid PNG");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    panic!("no preview appeared");
+}
+
 /// `--preview-every`: while the render runs, the output appears as a whole,
 /// valid picture of the full size; interrupted without `--partial`, it is
 /// removed again. A preview with a `.part` output is refused.
@@ -632,20 +652,7 @@ fn preview_appears_while_rendering_and_goes_on_interrupt() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // A deadline only so that a broken preview fails instead of hanging.
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-    let mut seen = None;
-    while seen.is_none() && std::time::Instant::now() < deadline {
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "finished before any preview"
-        );
-        if out.exists() {
-            seen = Some(image::open(&out).expect("a whole, valid PNG"));
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    let img = seen.expect("no preview appeared");
+    let img = wait_for_preview(&mut child, &out, "finished before any preview");
     assert_eq!((img.width(), img.height()), (600, 400));
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
@@ -691,20 +698,11 @@ fn sigusr1_writes_a_preview() {
     assert!(child.try_wait().unwrap().is_none(), "finished too soon");
     assert!(!out.exists(), "a picture appeared before it was asked for");
     signal("-USR1");
-    // A deadline only so that a broken preview fails instead of hanging.
-    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
-    let mut seen = None;
-    while seen.is_none() && std::time::Instant::now() < deadline {
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "ended before writing a preview (SIGUSR1 not caught?)"
-        );
-        if out.exists() {
-            seen = Some(image::open(&out).expect("a whole, valid PNG"));
-        }
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    let img = seen.expect("no preview appeared");
+    let img = wait_for_preview(
+        &mut child,
+        &out,
+        "ended before writing a preview (SIGUSR1 not caught?)",
+    );
     assert_eq!((img.width(), img.height()), (600, 400));
     signal("-INT");
     let o = child.wait_with_output().unwrap();
