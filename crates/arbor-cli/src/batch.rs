@@ -8,8 +8,25 @@ use std::time::Instant;
 use anyhow::Context;
 use arbor::load::load_ray_mesh;
 use arbor_accel::{AccelKind, MeshAccel};
+use clap::Args;
 
 use crate::InputError;
+
+/// How a batch query command runs: threads, repetitions, structure.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub threads: Option<u32>,
+    /// Build and answer the queries this many times; the best build and the
+    /// median and fastest pass are reported.
+    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeat: u32,
+    /// Acceleration structure (default: bvh-wide; point queries search a
+    /// binary BVH either way).
+    #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
+    pub accel: Option<AccelKind>,
+}
 
 /// Loads `path` as a triangle mesh (polygons split as fans, triangles
 /// numbered in file order) and builds `kind` over it `repeat` times on the

@@ -32,17 +32,9 @@ pub struct PointArgs {
     /// Where to write the answers.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    pub threads: Option<u32>,
-    /// Build and query this many times; the best build and the median and
-    /// fastest query pass are reported.
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    pub repeat: u32,
-    /// Acceleration structure of the mesh's ray queries (default:
-    /// bvh-wide); point queries search a binary BVH either way.
-    #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
-    pub accel: Option<AccelKind>,
+    /// Threads, repetitions, structure.
+    #[command(flatten)]
+    pub run: batch::RunArgs,
 }
 
 /// Arguments of `arbor inside`.
@@ -120,9 +112,9 @@ fn run(
     uses_inside: bool,
     query: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
 ) -> anyhow::Result<()> {
-    let kind = args.accel.unwrap_or(AccelKind::DEFAULT);
-    let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
-    let repeat = args.repeat as usize;
+    let kind = args.run.accel.unwrap_or(AccelKind::DEFAULT);
+    let pool = crate::thread_pool(args.run.threads.map(|n| n as usize))?;
+    let repeat = args.run.repeat as usize;
     crate::output::remove_pending_on_interrupt();
     if let Some(path) = &args.out {
         crate::output::check_writable(path, "--out")?;

@@ -64,16 +64,9 @@ pub struct TraceArgs {
     /// The same as `--query occluded`.
     #[arg(long)]
     pub occluded: bool,
-    /// Worker threads (default: all cores).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
-    pub threads: Option<u32>,
-    /// Build and trace this many times; the best build and the median and
-    /// fastest trace are reported.
-    #[arg(long, value_name = "K", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
-    pub repeat: u32,
-    /// Acceleration structure (default: bvh-wide).
-    #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
-    pub accel: Option<AccelKind>,
+    /// Threads, repetitions, structure.
+    #[command(flatten)]
+    pub run: batch::RunArgs,
 }
 
 /// Runs `arbor trace`.
@@ -83,9 +76,9 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         (None, true) => Query::Occluded,
         (None, false) => Query::Closest,
     };
-    let kind = args.accel.unwrap_or(AccelKind::DEFAULT);
-    let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
-    let repeat = args.repeat as usize;
+    let kind = args.run.accel.unwrap_or(AccelKind::DEFAULT);
+    let pool = crate::thread_pool(args.run.threads.map(|n| n as usize))?;
+    let repeat = args.run.repeat as usize;
     crate::output::remove_pending_on_interrupt();
     // Everything the user can get wrong is checked before the slow part.
     if let Some(path) = &args.hits {
