@@ -402,8 +402,8 @@ pub fn describe(name: &str, scene: &Scene, model: bool, depth: usize) -> anyhow:
         },
         short(c.view_point),
         short(c.view_dir),
-        c.view_width,
-        c.view_height
+        number(c.view_width),
+        number(c.view_height)
     )?;
     writeln!(
         out,

@@ -227,6 +227,13 @@ fn info_describes_a_model_and_writes_json() {
         assert!(out.contains(needle), "`{needle}` not in:\n{out}");
     }
     assert!(!out.contains("conventions"), "{out}");
+    // The view size is rounded like every other number of the report.
+    let camera = out.lines().find(|l| l.starts_with("camera")).unwrap();
+    let view = camera.rsplit_once("view ").unwrap().1;
+    for side in view.split(" x ") {
+        let decimals = side.split_once('.').map_or(0, |(_, f)| f.len());
+        assert!(decimals <= 4, "{camera}");
+    }
     assert!(
         !out.contains("\n  box "),
         "the floor in the hierarchy:\n{out}"
