@@ -25,6 +25,8 @@ mod error;
 mod format;
 pub mod frame;
 pub mod gltf;
+mod gltf_ext;
+mod gltf_material;
 mod mesh_data;
 mod model;
 pub mod msh;
