@@ -804,6 +804,11 @@ fn gltf_emission_is_kept() {
     assert!(glowing.len() < shaders.len(), "every material glows");
 }
 
+/// The warnings that contain `words`.
+fn warnings_with<'a>(warnings: &'a [String], words: &str) -> Vec<&'a String> {
+    warnings.iter().filter(|w| w.contains(words)).collect()
+}
+
 /// glTF extensions arbor does not implement are named in a warning, not
 /// ignored without a word; the ones it implements are not.
 #[test]
@@ -820,11 +825,7 @@ fn gltf_ignored_extensions_are_warned_about() {
     )
     .unwrap();
     let m = load_model(&p).unwrap();
-    let w: Vec<_> = m
-        .warnings
-        .iter()
-        .filter(|w| w.contains("arbor ignores"))
-        .collect();
+    let w = warnings_with(&m.warnings, "arbor ignores");
     assert_eq!(w.len(), 1, "{:?}", m.warnings);
     assert!(
         w[0].contains("(KHR_materials_sheen)") && w[0].starts_with(&p.display().to_string()),
@@ -991,10 +992,7 @@ fn gltf_materials_map_to_glass_mirrors_and_warnings() {
         "bumpy.gltf",
         r#"{"normalTexture":{"index":0},"occlusionTexture":{"index":0}}"#,
     );
-    let named: Vec<_> = warnings
-        .iter()
-        .filter(|w| w.contains("material features arbor does not render"))
-        .collect();
+    let named = warnings_with(&warnings, "material features arbor does not render");
     assert_eq!(named.len(), 1, "{warnings:?}");
     assert!(
         named[0].starts_with(&p.display().to_string())
@@ -1067,11 +1065,7 @@ fn mtl_ignored_features_are_named_once() {
     )
     .unwrap();
     let m = load_model(&obj).unwrap();
-    let named: Vec<_> = m
-        .warnings
-        .iter()
-        .filter(|w| w.contains("material features arbor does not render"))
-        .collect();
+    let named = warnings_with(&m.warnings, "material features arbor does not render");
     assert_eq!(named.len(), 1, "{:?}", m.warnings);
     assert_eq!(
         *named[0],

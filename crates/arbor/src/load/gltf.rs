@@ -409,13 +409,10 @@ impl Importer<'_> {
                 MAX_LIGHTS + self.lights_left_out
             ));
         }
-        if !self.ignored_features.is_empty() {
-            self.warnings.push(format!(
-                "{}: warning: material features arbor does not render are ignored: {}",
-                self.path.display(),
-                self.ignored_features.join(", ")
-            ));
-        }
+        self.warnings.extend(super::ignored_features_warning(
+            self.path,
+            &self.ignored_features,
+        ));
         Ok(Model {
             surfaces,
             camera: self.camera,
@@ -497,7 +494,7 @@ impl Importer<'_> {
             match self.ext.lights.get(light) {
                 // Every light costs a shadow ray per shaded point.
                 Some(Some(p)) if self.lights.len() < MAX_LIGHTS => {
-                    self.lights.extend(p.to_light(world))
+                    self.lights.extend(p.placed(world))
                 }
                 Some(Some(_)) => self.lights_left_out += 1,
                 _ => self.warnings.push(format!(
@@ -597,11 +594,10 @@ impl Importer<'_> {
                     let material = prim.material();
                     let texture = self.base_color_texture(&material);
                     let ext = self.ext.material(material.index());
-                    for feature in ignored_features(&material, &ext) {
-                        if !self.ignored_features.contains(&feature) {
-                            self.ignored_features.push(feature);
-                        }
-                    }
+                    super::note_ignored(
+                        &mut self.ignored_features,
+                        ignored_features(&material, &ext),
+                    );
                     let surface = shader_for(&material, &ext, texture);
                     self.emissive(&material, surface)
                 },

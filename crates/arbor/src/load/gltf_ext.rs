@@ -99,7 +99,7 @@ impl Punctual {
     /// becomes `intensity / π` times the colour, and a white diffuse
     /// surface under `E` lux shows the radiance `E / π` a physical one
     /// would. `None` when the matrix leaves no position or direction.
-    pub fn to_light(&self, world: DMat4) -> Option<Light> {
+    pub fn placed(&self, world: DMat4) -> Option<Light> {
         let intensity = DVec3::from_array(self.color) * (self.intensity / std::f64::consts::PI);
         let position = world.transform_point3(DVec3::ZERO);
         let along = world.transform_vector3(DVec3::NEG_Z).try_normalize()?;
@@ -368,7 +368,7 @@ mod tests {
             intensity,
             cos_inner,
             cos_outer,
-        }) = spot.to_light(world)
+        }) = spot.placed(world)
         else {
             panic!("a spot");
         };
@@ -381,12 +381,12 @@ mod tests {
             kind: PunctualKind::Directional,
             ..spot
         };
-        let Some(Light::Directional { direction, .. }) = sun.to_light(world) else {
+        let Some(Light::Directional { direction, .. }) = sun.placed(world) else {
             panic!("directional");
         };
         assert!((direction - DVec3::X).length() < 1e-12);
         // A zero scale leaves no direction.
-        assert_eq!(sun.to_light(DMat4::ZERO), None);
+        assert_eq!(sun.placed(DMat4::ZERO), None);
     }
 
     #[test]

@@ -291,6 +291,28 @@ fn z_up_to_y_up(mut mesh: MeshData) -> MeshData {
     mesh
 }
 
+/// Adds to `found` the material `features` not named there yet, for
+/// [`ignored_features_warning`].
+pub(super) fn note_ignored(found: &mut Vec<&'static str>, features: Vec<&'static str>) {
+    for feature in features {
+        if !found.contains(&feature) {
+            found.push(feature);
+        }
+    }
+}
+
+/// The one warning naming the material features of the model at `path`
+/// that its shaders leave out, or `None` when there are none.
+pub(super) fn ignored_features_warning(path: &Path, features: &[&str]) -> Option<String> {
+    (!features.is_empty()).then(|| {
+        format!(
+            "{}: warning: material features arbor does not render are ignored: {}",
+            path.display(),
+            features.join(", ")
+        )
+    })
+}
+
 /// Drops per-vertex normals that are unusable (a zero or non-finite vector
 /// anywhere would give a NaN shading normal) and returns whether it did.
 pub(super) fn sanitize_normals(mesh: &mut MeshData) -> bool {

@@ -161,11 +161,7 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
                         .diffuse_texture
                         .as_deref()
                         .and_then(|name| textures.get(name, &m.name, path, &mut warnings));
-                    for feature in ignored_features(m) {
-                        if !ignored.contains(&feature) {
-                            ignored.push(feature);
-                        }
-                    }
+                    super::note_ignored(&mut ignored, ignored_features(m));
                     shader_for(m, texture)
                 })
                 .clone(),
@@ -187,13 +183,7 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
             soft_terminator: true,
         }));
     }
-    if !ignored.is_empty() {
-        warnings.push(format!(
-            "{}: warning: material features arbor does not render are ignored: {}",
-            path.display(),
-            ignored.join(", ")
-        ));
-    }
+    warnings.extend(super::ignored_features_warning(path, &ignored));
     if undefined_material {
         warnings.push(format!(
             "{}: warning: faces use a material the library does not define; they get the default material",
