@@ -165,10 +165,12 @@ fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> 
         // Not JSON at all: the crate's own message says where.
         return Ok(None);
     };
-    let version = root
-        .pointer("/asset/version")
-        .and_then(|v| v.as_str())
-        .unwrap_or("");
+    // glTF 1.0 exporters also wrote the version as a number (`"version": 1`).
+    let version = match root.pointer("/asset/version") {
+        Some(gltf::json::Value::String(v)) => v.clone(),
+        Some(gltf::json::Value::Number(n)) => n.to_string(),
+        _ => String::new(),
+    };
     if version.starts_with('1') {
         return Err(LoadError::file(
             path,
@@ -1021,6 +1023,8 @@ mod tests {
             e.to_string(),
             "m.gltf: a glTF 1.0 file; arbor reads glTF 2.0"
         );
+        let e = prepare_json(br#"{"asset":{"version":1}}"#, p).unwrap_err();
+        assert_eq!(e.to_string(), "m.gltf: a glTF 1 file; arbor reads glTF 2.0");
         let e = prepare_json(
             br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression","KHR_draco_mesh_compression"]}"#,
             p,
