@@ -179,6 +179,9 @@ impl Summary {
                         json!({"type": "point", "position": v(*position), "intensity": v(*intensity)}),
                     Light::Directional { direction, intensity } =>
                         json!({"type": "directional", "direction": v(*direction), "intensity": v(*intensity)}),
+                    Light::Spot { position, direction, intensity, cos_inner, cos_outer } =>
+                        json!({"type": "spot", "position": v(*position), "direction": v(*direction), "intensity": v(*intensity),
+                               "inner_cone_degrees": cos_inner.acos().to_degrees(), "outer_cone_degrees": cos_outer.acos().to_degrees()}),
                 }).collect::<Vec<_>>(),
             },
             "floor": floor,
@@ -246,6 +249,13 @@ fn shader_json(shader: &Shader) -> serde_json::Value {
             "shader": "Glazed", "refractive_index": refractive_index,
             "substrate": shader_json(substrate), "texture": null
         }),
+        Shader::Reflective {
+            reflectance,
+            substrate,
+        } => json!({
+            "shader": "Reflective", "reflectance": v(reflectance),
+            "substrate": shader_json(substrate), "texture": null
+        }),
         Shader::Glass { refractive_index } => {
             json!({"shader": "Glass", "refractive_index": refractive_index, "texture": null})
         }
@@ -308,6 +318,14 @@ fn shader_line(shader: &Shader) -> String {
                 shader_line(substrate)
             )
         }
+        Shader::Reflective {
+            reflectance,
+            substrate,
+        } => format!(
+            "Reflective (reflectance {}) over {}",
+            c(reflectance),
+            shader_line(substrate)
+        ),
         Shader::Glass { refractive_index } => format!("Glass, index {refractive_index}"),
         Shader::RgbNormals => "RgbNormals".into(),
         Shader::Emissive {

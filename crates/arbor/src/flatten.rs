@@ -27,6 +27,7 @@ use glam::{DMat4, DVec2, DVec3};
 use crate::scene::{Scene, Variant};
 use crate::shader::Shader;
 use crate::surface::{box_, cylinder, sphere, triangle, Candidate, Surface, Transform};
+use crate::terminator;
 
 /// Index meaning "no transform" (the primitive is in world space).
 const NO_TRANSFORM: u32 = u32::MAX;
@@ -92,6 +93,8 @@ pub struct FlatMesh {
     pub triangles: Vec<[u32; 3]>,
     /// Back faces shaded like front faces ([`crate::surface::MeshSurface::two_sided`]).
     pub two_sided: bool,
+    /// Shadow rays lifted off ([`crate::surface::MeshSurface::soft_terminator`]).
+    pub soft_terminator: bool,
     transform: u32,
     shader: u32,
 }
@@ -110,6 +113,9 @@ pub struct Hit<'a> {
     pub uv: Option<DVec2>,
     /// The interpolated vertex colour when the mesh has vertex colours.
     pub color: Option<DVec3>,
+    /// Added to `point` where shadow rays start: zero, except on meshes
+    /// with [`crate::surface::MeshSurface::soft_terminator`].
+    pub shadow_offset: DVec3,
     /// The surface's shader.
     pub shader: &'a Shader,
 }
@@ -259,6 +265,7 @@ impl FlatScene {
                             colors: None,
                             triangles: tris.to_vec(),
                             two_sided: false,
+                            soft_terminator: false,
                             transform,
                             shader,
                         });
@@ -316,6 +323,7 @@ impl FlatScene {
                             colors,
                             triangles: data.triangles.clone(),
                             two_sided: mesh.two_sided,
+                            soft_terminator: mesh.soft_terminator,
                             transform: NO_TRANSFORM,
                             shader,
                         }
@@ -330,6 +338,7 @@ impl FlatScene {
                         colors,
                         triangles: data.triangles.clone(),
                         two_sided: mesh.two_sided,
+                        soft_terminator: mesh.soft_terminator,
                         transform: self.transform_index(m)?,
                         shader,
                     },
@@ -464,6 +473,7 @@ impl FlatScene {
         };
         let mut uv = None;
         let mut color = None;
+        let mut shadow_offset = DVec3::ZERO;
         let normal = match prim.shape {
             Shape::Sphere { center, .. } => {
                 let n = (object_point - center).normalize();
@@ -509,6 +519,19 @@ impl FlatScene {
                 let turn = m.two_sided
                     && !matches!(*self.shaders[prim.shader as usize], Shader::Glass { .. })
                     && geometric.dot(od) * geometric.dot(n) > 0.0;
+                if let (true, Some(ns)) = (m.soft_terminator, &m.normals) {
+                    let side = if turn { -1.0 } else { 1.0 };
+                    let local = terminator::shadow_offset(
+                        object_point,
+                        [p0, p1, p2],
+                        [ns[i0], ns[i1], ns[i2]].map(|n| n * side),
+                        [a, b, g],
+                    );
+                    shadow_offset = match xf {
+                        Some(t) => t.matrix.transform_vector3(local),
+                        None => local,
+                    };
+                }
                 if turn {
                     to_world(-n)
                 } else {
@@ -522,6 +545,7 @@ impl FlatScene {
             normal,
             uv,
             color,
+            shadow_offset,
             shader: &self.shaders[prim.shader as usize],
         }
     }

@@ -42,6 +42,7 @@ pub mod scene;
 pub mod shader;
 pub mod stats;
 pub mod surface;
+pub mod terminator;
 pub mod texture;
 pub mod tracer;
 pub mod xml;

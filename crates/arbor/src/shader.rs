@@ -47,6 +47,16 @@ pub enum Shader {
         /// Fresnel formula.
         fresnel: Fresnel,
     },
+    /// A mirror reflection weighted by Schlick's Fresnel with a coloured
+    /// reflectance at normal incidence (glTF's smooth metals, tinted by
+    /// their colour, and smooth dielectrics), over another shader, which
+    /// gets what is not reflected.
+    Reflective {
+        /// Reflectance at normal incidence, per channel.
+        reflectance: DVec3,
+        /// The shader of the light not reflected.
+        substrate: Arc<Shader>,
+    },
     /// A clear dielectric: reflection and refraction only.
     Glass {
         /// Refractive index.

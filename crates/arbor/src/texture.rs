@@ -63,6 +63,40 @@ pub struct Texture {
     pub height: u32,
     /// Row-major texels, row 0 at the top.
     pub texels: Vec<DVec3>,
+    /// Applied to the texture coordinates before the lookup (glTF's
+    /// `KHR_texture_transform`); `None` looks them up as given.
+    pub transform: Option<UvTransform>,
+}
+
+/// An affine map of texture coordinates, `(u, v) -> (a u + b v + c, d u +
+/// e v + f)`, in arbor's coordinates (v up the image).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    /// The rows `[a, b, c]` and `[d, e, f]`.
+    pub rows: [[f64; 3]; 2],
+}
+
+impl UvTransform {
+    /// glTF's `KHR_texture_transform` (`offset`, `rotation` in radians,
+    /// `scale`), which the extension defines as translation times rotation
+    /// times scale in glTF's coordinates (v down the image), written in
+    /// arbor's (v up: `v_arbor = 1 - v_gltf`).
+    pub fn gltf(offset: [f64; 2], rotation: f64, scale: [f64; 2]) -> UvTransform {
+        let (sin, cos) = rotation.sin_cos();
+        // glTF: u' = a u + b v + ox, v' = c u + d v + oy.
+        let (a, b) = (cos * scale[0], sin * scale[1]);
+        let (c, d) = (-sin * scale[0], cos * scale[1]);
+        // Substituting v = 1 - w and w' = 1 - v'.
+        UvTransform {
+            rows: [[a, -b, b + offset[0]], [-c, d, 1.0 - d - offset[1]]],
+        }
+    }
+
+    /// The coordinates `(u, v)` mapped.
+    pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
+        let [r, s] = self.rows;
+        (r[0] * u + r[1] * v + r[2], s[0] * u + s[1] * v + s[2])
+    }
 }
 
 impl Texture {
@@ -96,6 +130,15 @@ impl Texture {
         }
     }
 
+    /// The texture looked up through `transform` (its texels shared in
+    /// value, not in memory).
+    pub fn transformed(&self, transform: UvTransform) -> Texture {
+        Texture {
+            transform: Some(transform),
+            ..self.clone()
+        }
+    }
+
     fn from_image(
         img: image::DynamicImage,
         wrap: Wrap,
@@ -117,12 +160,18 @@ impl Texture {
             width: img.width(),
             height: img.height(),
             texels,
+            transform: None,
         })
     }
 
-    /// The texel for texture coordinates `(u, v)`: `x = floor(u w + 0.5)`,
-    /// `y = floor((1 - v) h + 0.5)`, then clamped or wrapped.
+    /// The texel for texture coordinates `(u, v)` (after the texture's
+    /// [`UvTransform`], if any): `x = floor(u w + 0.5)`, `y = floor((1 - v)
+    /// h + 0.5)`, then clamped or wrapped.
     pub fn lookup(&self, u: f64, v: f64) -> DVec3 {
+        let (u, v) = match &self.transform {
+            Some(t) => t.apply(u, v),
+            None => (u, v),
+        };
         let (w, h) = (self.width as i64, self.height as i64);
         let x = (u * w as f64 + 0.5).floor() as i64;
         let y = ((1.0 - v) * h as f64 + 0.5).floor() as i64;
@@ -269,6 +318,39 @@ mod tests {
         // The ends stay where they are.
         assert_eq!(TexelEncoding::Srgb.decode(0), 0.0);
         assert!((TexelEncoding::Srgb.decode(255) - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gltf_transforms_match_the_extension_in_gltf_coordinates() {
+        // A glTF transform applied to (u, 1 - v) equals the extension's
+        // matrix applied to glTF's (u, v), then flipped back.
+        let (offset, rotation, scale) = ([-0.2, -0.1], 0.3, [1.5, 0.7]);
+        let t = UvTransform::gltf(offset, rotation, scale);
+        let (s, c) = f64::sin_cos(rotation);
+        for (u, v) in [(0.0, 0.0), (0.25, 0.8), (1.3, -0.4)] {
+            let (gu, gv) = (u, 1.0 - v);
+            let want_u = c * scale[0] * gu + s * scale[1] * gv + offset[0];
+            let want_v = -s * scale[0] * gu + c * scale[1] * gv + offset[1];
+            let (au, av) = t.apply(u, v);
+            assert!((au - want_u).abs() < 1e-12 && (1.0 - av - want_v).abs() < 1e-12);
+        }
+        // The identity is the identity.
+        assert_eq!(
+            UvTransform::gltf([0.0; 2], 0.0, [1.0; 2]).apply(0.3, 0.6),
+            (0.3, 0.6)
+        );
+    }
+
+    #[test]
+    fn a_transformed_texture_looks_up_the_mapped_texel() {
+        let mut t = Texture::decode(&png([0, 0, 0]), Wrap::Repeat, TexelEncoding::Raw).unwrap();
+        // Two texels side by side: black at u < 0.5, white beyond.
+        t.width = 2;
+        t.texels = vec![DVec3::ZERO, DVec3::ONE];
+        assert_eq!(t.lookup(0.1, 0.5), DVec3::ZERO);
+        // An offset of half the width in u swaps them.
+        let shifted = t.transformed(UvTransform::gltf([0.5, 0.0], 0.0, [1.0; 2]));
+        assert_eq!(shifted.lookup(0.1, 0.5), DVec3::ONE);
     }
 
     #[test]

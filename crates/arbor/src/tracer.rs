@@ -508,6 +508,12 @@ impl Tracer {
                     normal: p.normal_to_world(local.normal),
                     uv: local.uv,
                     color: local.color,
+                    // Geometry space to world: the inverse of the placement's.
+                    shadow_offset: if local.shadow_offset == DVec3::ZERO {
+                        DVec3::ZERO
+                    } else {
+                        p.inverse.matrix3.inverse() * local.shadow_offset
+                    },
                     shader: local.shader,
                 }
             }

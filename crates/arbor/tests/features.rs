@@ -66,6 +66,96 @@ fn directional_light_has_no_falloff_and_point_light_has_inverse_square() {
     assert!(close(film(&s).get(10, 10), DVec3::splat(1.0), 1e-9));
 }
 
+/// A spot light lights what lies inside its cone and nothing outside it,
+/// falling off as `1/r²` on its axis.
+#[test]
+fn spot_light_lights_its_cone_only() {
+    use arbor::light::Light;
+    let mut s = load(&format!(
+        r#"<scene>{CAM_2015}<surface type="Box"><shader type="Lambertian"><diffuseColor>0.5 0.5 0.5</diffuseColor></shader><minPt>-10 -10 -1</minPt><maxPt>10 10 0</maxPt></surface></scene>"#
+    ));
+    s.lights = vec![Light::Spot {
+        position: DVec3::new(0.0, 0.0, 2.0),
+        direction: DVec3::NEG_Z,
+        intensity: DVec3::splat(8.0),
+        cos_inner: 0.1f64.cos(),
+        cos_outer: 0.2f64.cos(),
+    }];
+    let f = film(&s);
+    // On the axis: E = 8 / 2², kd E = 1.
+    assert!(close(f.get(10, 10), DVec3::ONE, 1e-9), "{}", f.get(10, 10));
+    // A corner of the picture lies far outside a 0.2 radian cone.
+    assert_eq!(f.get(0, 0), DVec3::ZERO);
+}
+
+/// A Reflective surface (glTF's smooth metal) shows what its mirror
+/// direction sees, weighted by its reflectance: here the background,
+/// straight back along the camera ray.
+#[test]
+fn reflective_surfaces_mirror_what_they_face() {
+    use arbor::shader::Shader;
+    use arbor::surface::Surface;
+    use std::sync::Arc;
+    let mut s = load(&format!(
+        r#"<scene><backColor>0.2 0.4 0.6</backColor>{CAM_2015}<surface type="Box"><shader type="Lambertian"><diffuseColor>0 0 0</diffuseColor></shader><minPt>-10 -10 -1</minPt><maxPt>10 10 0</maxPt></surface></scene>"#
+    ));
+    let Surface::Box(b) = &mut s.surfaces[0] else {
+        panic!("a box");
+    };
+    b.shader = Arc::new(Shader::Reflective {
+        reflectance: DVec3::new(1.0, 0.5, 0.0),
+        substrate: b.shader.clone(),
+    });
+    let f = film(&s);
+    // Head-on, Schlick's weight is the reflectance itself.
+    assert!(
+        close(f.get(10, 10), DVec3::new(0.2, 0.2, 0.0), 1e-9),
+        "{}",
+        f.get(10, 10)
+    );
+}
+
+/// Model meshes with interpolated normals lift their shadow rays off the
+/// flat triangles (the shadow terminator, `arbor::terminator`); meshes
+/// without the flag (the course's scenes) and flat normals do not.
+#[test]
+fn soft_terminator_offsets_shadow_rays_of_smooth_meshes_only() {
+    use arbor::load::MeshData;
+    use arbor::surface::{MeshSurface, Surface};
+    use glam::Vec3;
+    use std::sync::Arc;
+    let positions = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+    // Normals leaning outward, as on a coarse sphere.
+    let bulge = vec![
+        Vec3::new(-1.0, -1.0, 2.0).normalize(),
+        Vec3::new(1.0, 0.0, 2.0).normalize(),
+        Vec3::new(0.0, 1.0, 2.0).normalize(),
+    ];
+    let offset = |soft: bool, normals: Vec<Vec3>| {
+        let mut scene = load("<scene><camera/><image>2 2</image></scene>");
+        scene.surfaces.push(Surface::Mesh(MeshSurface {
+            data: Arc::new(MeshData {
+                positions: positions.clone(),
+                normals: Some(normals),
+                uvs: None,
+                colors: None,
+                triangles: vec![[0, 1, 2]],
+            }),
+            shader: Arc::new(arbor::shader::Shader::default_lambertian()),
+            two_sided: true,
+            soft_terminator: soft,
+        }));
+        let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::DEFAULT);
+        let o = DVec3::new(0.3, 0.3, 1.0);
+        let hit = tracer.closest(o, DVec3::NEG_Z, 0.0, f64::INFINITY).unwrap();
+        hit.shadow_offset
+    };
+    let lifted = offset(true, bulge.clone());
+    assert!(lifted.z > 0.0, "{lifted}");
+    assert_eq!(offset(false, bulge), DVec3::ZERO);
+    assert_eq!(offset(true, vec![Vec3::Z; 3]), DVec3::ZERO);
+}
+
 #[test]
 fn exposure_and_background() {
     let s = load(&format!(
@@ -226,6 +316,7 @@ fn non_finite_vertices_are_dropped_not_traced() {
         data: std::sync::Arc::new(data),
         shader: std::sync::Arc::new(arbor::shader::Shader::default_lambertian()),
         two_sided: false,
+        soft_terminator: false,
     }));
     let flat = FlatScene::new(&scene).unwrap();
     assert_eq!((flat.len(), flat.dropped()), (2, 1));
@@ -268,6 +359,7 @@ fn two_sided_meshes_turn_the_normal_to_the_ray() {
             }),
             shader: Arc::new(shader),
             two_sided,
+            soft_terminator: false,
         }));
         let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::DEFAULT);
         let o = DVec3::new(0.25, 0.25, from_z);

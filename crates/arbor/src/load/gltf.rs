@@ -5,13 +5,16 @@
 //! given). A mesh is built once as one shared `Arc<Surface>` and placed by
 //! [`Surface::Instance`] wherever a node uses it, so a mesh used by many
 //! nodes is stored once and [`crate::flatten::Flattened`] keeps it shared.
-//! Triangle primitives are read with their normals and first texture
-//! coordinates; other modes (points, lines, strips and fans) are skipped
-//! with a warning. The base colour factor becomes the diffuse colour (Phong
-//! with a highlight from the roughness), replaced by the base colour
-//! texture where one can be read (from a buffer view, a `data:` URI or a
-//! file beside the model; otherwise a warning). The first camera met in the scene becomes ours; without one
-//! [`super::frame`] frames the model.
+//! Triangle primitives (lists, strips and fans) are read with their
+//! normals, one texture coordinate set and `COLOR_0`; points and lines are
+//! skipped with a warning. Materials become shaders as
+//! [`super::gltf_material`] maps them, with the base colour and emissive
+//! textures (from a buffer view, a `data:` URI or a file beside the model;
+//! otherwise a warning) looked up through `KHR_texture_transform`; the
+//! extensions arbor reads come from the JSON ([`super::gltf_ext`]).
+//! `KHR_lights_punctual` lights are placed by their nodes. The first camera
+//! met in the scene becomes ours; without one [`super::frame`] frames the
+//! model.
 //!
 //! The crate validates indices between JSON objects; what it leaves to us
 //! is checked before reading: node cycles, accessor ranges against their
@@ -24,12 +27,15 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{DMat4, DVec3, DVec4, Vec2, Vec3};
+use glam::{DMat4, DVec3, Vec2, Vec3};
 use gltf::mesh::Mode;
 
+use super::gltf_ext::{FileExt, TextureTransform};
+use super::gltf_material::{ignored_features, shader_for};
 use super::{Model, ModelStats};
 use crate::camera::{Camera, CameraKind};
 use crate::flatten::DEFAULT_MAX_PLACEMENTS;
+use crate::light::Light;
 use crate::load::{LoadError, MeshData};
 use crate::shader::Shader;
 use crate::surface::{Group, MeshSurface, Surface};
@@ -83,8 +89,7 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
     } else {
         bytes
     };
-    let emissive_strengths = emissive_strengths(json);
-    let ignored = ignored_extensions(json);
+    let ext = FileExt::read(json);
     let invalid = |e: gltf::Error| LoadError::file(path, format!("not a valid glTF 2.0 file: {e}"));
     let mut gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
     // The crate's validation indexes the accessors by each primitive's
@@ -116,16 +121,20 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
         meshes: HashMap::default(),
         mesh_triangles: HashMap::default(),
         mesh_uses: HashMap::default(),
-        warnings: ignored
-            .map(|names| {
+        warnings: (!ext.ignored.is_empty())
+            .then(|| {
                 format!(
-                    "{}: warning: the file uses glTF extensions arbor ignores ({names}); the picture may differ from the author's",
-                    path.display()
+                    "{}: warning: the file uses glTF extensions arbor ignores ({}); the picture may differ from the author's",
+                    path.display(),
+                    ext.ignored.join(", ")
                 )
             })
             .into_iter()
             .collect(),
-        emissive_strengths,
+        ext,
+        lights: Vec::new(),
+        lights_left_out: 0,
+        ignored_features: Vec::new(),
         stats: ModelStats {
             nodes: gltf.document.nodes().len() as u64,
             meshes: gltf.document.meshes().len() as u64,
@@ -136,6 +145,9 @@ pub fn parse(bytes: &[u8], path: &Path, base: Option<&Path>) -> Result<Model, Lo
     }
     .run()
 }
+
+/// The most `KHR_lights_punctual` lights a file's nodes may place.
+const MAX_LIGHTS: usize = 64;
 
 /// The extensions arbor reads when a file requires them (none of the
 /// required-extension kind today: each one listed here changes geometry or
@@ -153,10 +165,12 @@ fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> 
         // Not JSON at all: the crate's own message says where.
         return Ok(None);
     };
-    let version = root
-        .pointer("/asset/version")
-        .and_then(|v| v.as_str())
-        .unwrap_or("");
+    // glTF 1.0 exporters also wrote the version as a number (`"version": 1`).
+    let version = match root.pointer("/asset/version") {
+        Some(gltf::json::Value::String(v)) => v.clone(),
+        Some(gltf::json::Value::Number(n)) => n.to_string(),
+        _ => String::new(),
+    };
     if version.starts_with('1') {
         return Err(LoadError::file(
             path,
@@ -207,40 +221,6 @@ fn prepare_json(json: &[u8], path: &Path) -> Result<Option<Vec<u8>>, LoadError> 
         }
     }
     Ok(changed.then(|| gltf::json::serialize::to_vec(&root).unwrap_or_default()))
-}
-
-/// The extensions the file uses (`extensionsUsed`) that arbor does not
-/// implement, listed for a warning, or `None` when there are none.
-fn ignored_extensions(json: &[u8]) -> Option<String> {
-    const READ: &[&str] = &["KHR_materials_emissive_strength"];
-    let root = gltf::json::deserialize::from_slice::<gltf::json::Value>(json).ok()?;
-    let used = root.get("extensionsUsed")?.as_array()?;
-    let ignored: Vec<&str> = used
-        .iter()
-        .filter_map(|v| v.as_str())
-        .filter(|n| !READ.contains(n))
-        .collect();
-    (!ignored.is_empty()).then(|| ignored.join(", "))
-}
-
-/// Each material's `KHR_materials_emissive_strength` (1 where it has none),
-/// read from the JSON: the crate is built without that extension.
-fn emissive_strengths(json: &[u8]) -> Vec<f64> {
-    let Ok(root) = gltf::json::deserialize::from_slice::<gltf::json::Value>(json) else {
-        return Vec::new();
-    };
-    let Some(materials) = root.get("materials").and_then(|m| m.as_array()) else {
-        return Vec::new();
-    };
-    materials
-        .iter()
-        .map(|m| {
-            m.pointer("/extensions/KHR_materials_emissive_strength/emissiveStrength")
-                .and_then(|s| s.as_f64())
-                .filter(|s| s.is_finite() && *s >= 0.0)
-                .unwrap_or(1.0)
-        })
-        .collect()
 }
 
 /// The JSON chunk of a GLB file (the first chunk, by the format), when the
@@ -337,6 +317,8 @@ enum Usage {
     Vectors,
     /// Texture coordinates: VEC2 of floats or normalized integers.
     TexCoords,
+    /// Vertex colours: VEC3 or VEC4 of floats or normalized integers.
+    Colors,
 }
 
 struct Importer<'a> {
@@ -353,8 +335,15 @@ struct Importer<'a> {
     /// How many nodes place each mesh.
     mesh_uses: HashMap<usize, u64>,
     warnings: Vec<String>,
-    /// Each material's emissive strength (`KHR_materials_emissive_strength`).
-    emissive_strengths: Vec<f64>,
+    /// What the extensions arbor reads say.
+    ext: FileExt,
+    /// The file's lights (`KHR_lights_punctual`) as placed by the nodes.
+    lights: Vec<Light>,
+    /// Lights beyond [`MAX_LIGHTS`], not placed.
+    lights_left_out: usize,
+    /// Material features arbor does not render, named once each for one
+    /// warning.
+    ignored_features: Vec<&'static str>,
     stats: ModelStats,
     camera: Option<Camera>,
     aspect: Option<f64>,
@@ -415,11 +404,22 @@ impl Importer<'_> {
             }
             return Err(self.err(message));
         }
+        if self.lights_left_out > 0 {
+            self.warnings.push(format!(
+                "{}: warning: the file places {} lights; only the first {MAX_LIGHTS} are used",
+                self.path.display(),
+                MAX_LIGHTS + self.lights_left_out
+            ));
+        }
+        self.warnings.extend(super::ignored_features_warning(
+            self.path,
+            &self.ignored_features,
+        ));
         Ok(Model {
             surfaces,
             camera: self.camera,
             aspect: self.aspect,
-            lights: Vec::new(),
+            lights: self.lights,
             warnings: self.warnings,
             stats: self.stats,
         })
@@ -490,6 +490,19 @@ impl Importer<'_> {
         if self.camera.is_none() {
             if let Some(cam) = node.camera() {
                 self.set_camera(&cam, world);
+            }
+        }
+        if let Some(&Some(light)) = self.ext.node_lights.get(n) {
+            match self.ext.lights.get(light) {
+                // Every light costs a shadow ray per shaded point.
+                Some(Some(p)) if self.lights.len() < MAX_LIGHTS => {
+                    self.lights.extend(p.placed(world))
+                }
+                Some(Some(_)) => self.lights_left_out += 1,
+                _ => self.warnings.push(format!(
+                    "{}: warning: node {n} places light {light}, which is not a point, spot or directional light arbor reads; it is left out",
+                    self.path.display()
+                )),
             }
         }
         let mut children = Vec::new();
@@ -582,10 +595,16 @@ impl Importer<'_> {
                 shader: {
                     let material = prim.material();
                     let texture = self.base_color_texture(&material);
-                    let surface = shader_for(&material, texture);
+                    let ext = self.ext.material(material.index());
+                    super::note_ignored(
+                        &mut self.ignored_features,
+                        ignored_features(&material, &ext),
+                    );
+                    let surface = shader_for(&material, &ext, texture);
                     self.emissive(&material, surface)
                 },
                 two_sided: true,
+                soft_terminator: true,
             }));
         }
         if parts.is_empty() {
@@ -635,6 +654,17 @@ impl Importer<'_> {
                     return Err(fail("is not VEC3 of floats"));
                 }
             }
+            Usage::Colors => {
+                let normalized =
+                    accessor.normalized() && matches!(ty, DataType::U8 | DataType::U16);
+                if !matches!(dims, Dimensions::Vec3 | Dimensions::Vec4)
+                    || !(ty == DataType::F32 || normalized)
+                {
+                    return Err(fail(
+                        "holds colours that are not VEC3 or VEC4 of floats or normalized bytes or shorts",
+                    ));
+                }
+            }
             Usage::TexCoords => {
                 let normalized =
                     accessor.normalized() && matches!(ty, DataType::U8 | DataType::U16);
@@ -675,23 +705,27 @@ impl Importer<'_> {
         Ok(())
     }
 
-    /// The base colour texture of material `m`, each image read once; `None`
-    /// (with a warning naming the material and the image) when there is
-    /// none or it cannot be read: the base colour is used instead, the
-    /// model still loads.
+    /// The base colour texture of material `m`, each image read once and
+    /// looked up through its `KHR_texture_transform`; `None` (with a warning
+    /// naming the material and the image) when there is none or it cannot
+    /// be read: the base colour is used instead, the model still loads.
     fn base_color_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
         let info = m.pbr_metallic_roughness().base_color_texture()?;
-        self.texture(m, &info, "base colour", "the base colour is used")
+        let transform = self.ext.material(m.index()).base_color_transform;
+        self.texture(
+            m,
+            &info,
+            transform,
+            "base colour",
+            "the base colour is used",
+        )
     }
 
     /// `surface` with the emission of material `m` added when it has one:
     /// `emissiveFactor` times `emissiveTexture`, scaled by
     /// `KHR_materials_emissive_strength`.
     fn emissive(&mut self, m: &gltf::Material, surface: Arc<Shader>) -> Arc<Shader> {
-        let strength = m
-            .index()
-            .and_then(|i| self.emissive_strengths.get(i).copied())
-            .unwrap_or(1.0);
+        let strength = self.ext.material(m.index()).emissive_strength;
         let emission = DVec3::from_array(m.emissive_factor().map(f64::from)) * strength;
         if !(emission.is_finite() && emission.max_element() > 0.0) {
             return surface;
@@ -708,47 +742,82 @@ impl Importer<'_> {
     /// reads the base colour's (sRGB as well, by the specification).
     fn emissive_texture(&mut self, m: &gltf::Material) -> Option<Arc<Texture>> {
         let info = m.emissive_texture()?;
-        self.texture(m, &info, "emissive", "its emissive factor alone is used")
+        let transform = self.ext.material(m.index()).emissive_transform;
+        self.texture(
+            m,
+            &info,
+            transform,
+            "emissive",
+            "its emissive factor alone is used",
+        )
     }
 
-    /// The texture `info` names for the `what` of material `m`; `fallback`
-    /// says in a warning what is used when it cannot be read.
+    /// The texture coordinate set the primitives of material `m` are read
+    /// with: the base colour texture's (after `KHR_texture_transform`'s
+    /// `texCoord`), else the emissive texture's, else 0. A mesh keeps one
+    /// set, so a texture of the material on another set is not used.
+    fn uv_set(&self, m: &gltf::Material) -> u32 {
+        let ext = self.ext.material(m.index());
+        let base = m.pbr_metallic_roughness().base_color_texture();
+        let set = |info: &gltf::texture::Info, t: Option<TextureTransform>| {
+            t.and_then(|t| t.tex_coord).unwrap_or(info.tex_coord())
+        };
+        match (base, m.emissive_texture()) {
+            (Some(b), _) => set(&b, ext.base_color_transform),
+            (None, Some(e)) => set(&e, ext.emissive_transform),
+            (None, None) => 0,
+        }
+    }
+
+    /// The texture `info` names for the `what` of material `m`, looked up
+    /// through `transform`; `fallback` says in a warning what is used when
+    /// it cannot be read.
     fn texture(
         &mut self,
         m: &gltf::Material,
         info: &gltf::texture::Info,
+        transform: Option<TextureTransform>,
         what: &str,
         fallback: &str,
     ) -> Option<Arc<Texture>> {
         let material = m.index().map_or("default".to_string(), |i| i.to_string());
-        if info.tex_coord() != 0 {
+        let set = transform
+            .and_then(|t| t.tex_coord)
+            .unwrap_or(info.tex_coord());
+        if set != self.uv_set(m) {
             self.warnings.push(format!(
-                "{}: warning: material {material}: its {what} texture uses TEXCOORD_{}, only TEXCOORD_0 is read; {fallback}",
+                "{}: warning: material {material}: its {what} texture uses TEXCOORD_{set}, its base colour TEXCOORD_{}; only one set is read per mesh; {fallback}",
                 self.path.display(),
-                info.tex_coord()
+                self.uv_set(m)
             ));
             return None;
         }
         let image = info.texture().source();
-        if let Some(t) = self.textures.get(&image.index()) {
-            return t.clone();
-        }
-        let texture = match self
-            .image_bytes(&image)
-            .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat, TexelEncoding::Srgb))
-        {
-            Ok(t) => Some(Arc::new(t)),
-            Err(e) => {
-                self.warnings.push(format!(
-                    "{}: warning: material {material}: image {}: {e}; {fallback}",
-                    self.path.display(),
-                    image.index()
-                ));
-                None
+        let texture = match self.textures.get(&image.index()) {
+            Some(t) => t.clone(),
+            None => {
+                let texture = match self
+                    .image_bytes(&image)
+                    .and_then(|bytes| Texture::decode(&bytes, Wrap::Repeat, TexelEncoding::Srgb))
+                {
+                    Ok(t) => Some(Arc::new(t)),
+                    Err(e) => {
+                        self.warnings.push(format!(
+                            "{}: warning: material {material}: image {}: {e}; {fallback}",
+                            self.path.display(),
+                            image.index()
+                        ));
+                        None
+                    }
+                };
+                self.textures.insert(image.index(), texture.clone());
+                texture
             }
-        };
-        self.textures.insert(image.index(), texture.clone());
-        texture
+        }?;
+        Some(match transform {
+            Some(t) => Arc::new(texture.transformed(t.transform)),
+            None => texture,
+        })
     }
 
     /// The encoded bytes of `image`: a slice of a buffer (checked against
@@ -804,6 +873,7 @@ impl Importer<'_> {
     }
 
     fn primitive(&self, mesh: usize, prim: &gltf::Primitive) -> Result<MeshData, LoadError> {
+        let uv_set = self.uv_set(&prim.material());
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
             return Err(self.err(format!("mesh {mesh}: a primitive has no POSITION")));
         };
@@ -816,13 +886,20 @@ impl Importer<'_> {
         if let Some(a) = &normal_acc {
             self.check_accessor(mesh, a, Usage::Vectors)?;
         }
-        // Texture coordinates (set 0, the one base colour textures use
-        // here), likewise.
+        // Texture coordinates (the set the material's textures use),
+        // likewise.
         let uv_acc = prim
-            .get(&gltf::Semantic::TexCoords(0))
+            .get(&gltf::Semantic::TexCoords(uv_set))
             .filter(|a| a.count() == pos_acc.count());
         if let Some(a) = &uv_acc {
             self.check_accessor(mesh, a, Usage::TexCoords)?;
+        }
+        // Vertex colours (linear by the specification), likewise.
+        let color_acc = prim
+            .get(&gltf::Semantic::Colors(0))
+            .filter(|a| a.count() == pos_acc.count());
+        if let Some(a) = &color_acc {
+            self.check_accessor(mesh, a, Usage::Colors)?;
         }
         if let Some(a) = prim.indices() {
             self.check_accessor(mesh, &a, Usage::Indices)?;
@@ -847,11 +924,27 @@ impl Importer<'_> {
             .is_some()
             .then(|| {
                 reader
-                    .read_tex_coords(0)
+                    .read_tex_coords(uv_set)
                     .map(|it| it.into_f32().map(|[u, v]| Vec2::new(u, 1.0 - v)).collect())
             })
             .flatten()
             .filter(|t: &Vec<Vec2>| t.len() == positions.len());
+        // COLOR_0 multiplies the base colour factor (the texture, when there
+        // is one, is multiplied in at the hit).
+        let factor =
+            Vec3::from_slice(&prim.material().pbr_metallic_roughness().base_color_factor()[..3])
+                .clamp(Vec3::ZERO, Vec3::ONE);
+        let colors: Option<Vec<Vec3>> = color_acc
+            .is_some()
+            .then(|| {
+                reader.read_colors(0).map(|it| {
+                    it.into_rgb_f32()
+                        .map(|c| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE) * factor)
+                        .collect()
+                })
+            })
+            .flatten()
+            .filter(|c: &Vec<Vec3>| c.len() == positions.len());
         let indices: Vec<u32> = match reader.read_indices() {
             Some(it) => it.into_u32().collect(),
             None => (0..positions.len() as u32).collect(),
@@ -867,7 +960,7 @@ impl Importer<'_> {
             positions,
             normals,
             uvs,
-            colors: None,
+            colors,
         };
         super::check_finite(self.path, &data.positions)?;
         super::sanitize_normals(&mut data);
@@ -900,44 +993,6 @@ fn assemble(mode: Mode, ix: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// The shader for a glTF material: the base colour is the diffuse colour;
-/// a smooth (low roughness) surface gets a Phong highlight whose exponent
-/// grows as the roughness falls, metals tinted by their colour. A base
-/// colour texture, when one was read, times the base colour factor (both
-/// linear, as the specification defines them) is the diffuse colour.
-pub fn shader_for(m: &gltf::Material, texture: Option<Arc<Texture>>) -> Arc<Shader> {
-    let pbr = m.pbr_metallic_roughness();
-    let c = pbr.base_color_factor();
-    let base = DVec4::from_array(c.map(f64::from))
-        .truncate()
-        .clamp(DVec3::ZERO, DVec3::ONE);
-    let texture = texture.map(|t| {
-        if base == DVec3::ONE {
-            t
-        } else {
-            Arc::new(t.tinted(base))
-        }
-    });
-    let rough = (pbr.roughness_factor() as f64).clamp(0.0, 1.0);
-    let metal = (pbr.metallic_factor() as f64).clamp(0.0, 1.0);
-    if rough >= 0.9 {
-        return Arc::new(Shader::Lambertian {
-            diffuse: base,
-            texture,
-        });
-    }
-    let specular = DVec3::splat(0.04).lerp(base, metal) * (1.0 - rough);
-    // Blinn-Phong exponent for a GGX-like roughness (alpha = r²).
-    let alpha = (rough * rough).max(1e-3);
-    let exponent = (2.0 / (alpha * alpha) - 2.0).clamp(2.0, 2000.0);
-    Arc::new(Shader::Phong {
-        diffuse: base * (1.0 - metal * 0.7),
-        specular,
-        exponent,
-        texture,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -961,24 +1016,6 @@ mod tests {
     }
 
     #[test]
-    fn emissive_strength_is_read_per_material() {
-        let json = br#"{"materials":[{},{"extensions":{"KHR_materials_emissive_strength":{"emissiveStrength":5.5}}}]}"#;
-        assert_eq!(emissive_strengths(json), [1.0, 5.5]);
-        assert!(emissive_strengths(b"not json").is_empty());
-    }
-
-    #[test]
-    fn ignored_extensions_are_named() {
-        let json = br#"{"extensionsUsed":["KHR_texture_transform","KHR_materials_emissive_strength","KHR_lights_punctual"]}"#;
-        assert_eq!(
-            ignored_extensions(json).as_deref(),
-            Some("KHR_texture_transform, KHR_lights_punctual")
-        );
-        assert_eq!(ignored_extensions(br#"{"extensionsUsed":[]}"#), None);
-        assert_eq!(ignored_extensions(b"{}"), None);
-    }
-
-    #[test]
     fn json_checks_before_the_crate() {
         let p = Path::new("m.gltf");
         let e = prepare_json(br#"{"asset":{"version":"1.0"}}"#, p).unwrap_err();
@@ -986,6 +1023,8 @@ mod tests {
             e.to_string(),
             "m.gltf: a glTF 1.0 file; arbor reads glTF 2.0"
         );
+        let e = prepare_json(br#"{"asset":{"version":1}}"#, p).unwrap_err();
+        assert_eq!(e.to_string(), "m.gltf: a glTF 1 file; arbor reads glTF 2.0");
         let e = prepare_json(
             br#"{"asset":{"version":"2.0"},"extensionsRequired":["KHR_draco_mesh_compression","KHR_draco_mesh_compression"]}"#,
             p,

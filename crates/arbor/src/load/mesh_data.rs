@@ -13,10 +13,11 @@ pub struct MeshData {
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates, one per position, when the file has them.
     pub uvs: Option<Vec<Vec2>>,
-    /// Per-vertex colours, linear (decoded from the file's sRGB), one per
-    /// position, when the file has them (OBJ's `v x y z r g b`, PLY's
-    /// `red`/`green`/`blue`). They replace the material's diffuse colour
-    /// where no texture applies.
+    /// Per-vertex colours, linear (decoded from OBJ's and PLY's sRGB;
+    /// glTF's `COLOR_0` is linear already, and comes multiplied by the base
+    /// colour factor), one per position, when the file has them (OBJ's `v
+    /// x y z r g b`, PLY's `red`/`green`/`blue`, glTF's `COLOR_0`). They
+    /// replace the material's diffuse colour, and multiply its texture.
     pub colors: Option<Vec<Vec3>>,
     /// Triangles as indices into `positions` (every index is in range).
     pub triangles: Vec<[u32; 3]>,

@@ -25,6 +25,8 @@ mod error;
 mod format;
 pub mod frame;
 pub mod gltf;
+mod gltf_ext;
+mod gltf_material;
 mod mesh_data;
 mod model;
 pub mod msh;
@@ -47,7 +49,7 @@ pub use msh::{load_msh, parse_msh};
 pub use obj_exact::{load_obj, parse_obj, ObjRule};
 
 use crate::xml::LoadedScene;
-use model::{check_finite, sanitize_normals};
+use model::{check_finite, ignored_features_warning, note_ignored, sanitize_normals};
 use text::{decode_text, read_bytes, read_text, shorten};
 
 /// Reads one triangle mesh from a mesh file (`.msh`, `.obj` read under

@@ -32,7 +32,8 @@ pub struct Model {
     pub camera: Option<Camera>,
     /// Aspect ratio (width / height) the file's camera asks for, if any.
     pub aspect: Option<f64>,
-    /// The file's own lights, if any (none of the formats read today has them).
+    /// The file's own lights (glTF's `KHR_lights_punctual`), if any; they
+    /// replace the automatic lights.
     pub lights: Vec<Light>,
     /// Non-fatal remarks for the user, each naming the file.
     pub warnings: Vec<String>,
@@ -192,6 +193,9 @@ pub fn load_model_with(path: &Path, options: &ModelOptions) -> Result<Model, Loa
                 transform: turn,
                 children: std::mem::take(&mut model.surfaces),
             })];
+            for light in &mut model.lights {
+                turn_light(light, turn);
+            }
             if let Some(c) = &mut model.camera {
                 c.view_point = turn.transform_point3(c.view_point);
                 c.view_dir = turn.transform_vector3(c.view_dir);
@@ -204,6 +208,22 @@ pub fn load_model_with(path: &Path, options: &ModelOptions) -> Result<Model, Loa
         model.aspect = None;
     }
     Ok(model)
+}
+
+/// `light` turned by the rotation `turn`.
+fn turn_light(light: &mut Light, turn: DMat4) {
+    match light {
+        Light::Point { position, .. } => *position = turn.transform_point3(*position),
+        Light::Directional { direction, .. } => *direction = turn.transform_vector3(*direction),
+        Light::Spot {
+            position,
+            direction,
+            ..
+        } => {
+            *position = turn.transform_point3(*position);
+            *direction = turn.transform_vector3(*direction);
+        }
+    }
 }
 
 /// Imports the model at `path` and builds the scene that frames it
@@ -242,6 +262,7 @@ fn single_mesh(mesh: MeshData) -> Model {
             data: Arc::new(mesh),
             shader: default_shader(),
             two_sided: true,
+            soft_terminator: true,
         })],
         stats: ModelStats {
             nodes: 0,
@@ -268,6 +289,28 @@ fn z_up_to_y_up(mut mesh: MeshData) -> MeshData {
         }
     }
     mesh
+}
+
+/// Adds to `found` the material `features` not named there yet, for
+/// [`ignored_features_warning`].
+pub(super) fn note_ignored(found: &mut Vec<&'static str>, features: Vec<&'static str>) {
+    for feature in features {
+        if !found.contains(&feature) {
+            found.push(feature);
+        }
+    }
+}
+
+/// The one warning naming the material features of the model at `path`
+/// that its shaders leave out, or `None` when there are none.
+pub(super) fn ignored_features_warning(path: &Path, features: &[&str]) -> Option<String> {
+    (!features.is_empty()).then(|| {
+        format!(
+            "{}: warning: material features arbor does not render are ignored: {}",
+            path.display(),
+            features.join(", ")
+        )
+    })
 }
 
 /// Drops per-vertex normals that are unusable (a zero or non-finite vector

@@ -87,6 +87,8 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
             Vec::new()
         }
     };
+    // Material features the shaders leave out, named once for the model.
+    let mut ignored: Vec<&'static str> = Vec::new();
     let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::default();
     let mut textures = Textures::new(&dir);
     let default = default_shader();
@@ -159,6 +161,7 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
                         .diffuse_texture
                         .as_deref()
                         .and_then(|name| textures.get(name, &m.name, path, &mut warnings));
+                    super::note_ignored(&mut ignored, ignored_features(m));
                     shader_for(m, texture)
                 })
                 .clone(),
@@ -177,8 +180,10 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
             data: Arc::new(data),
             shader,
             two_sided: true,
+            soft_terminator: true,
         }));
     }
+    warnings.extend(super::ignored_features_warning(path, &ignored));
     if undefined_material {
         warnings.push(format!(
             "{}: warning: faces use a material the library does not define; they get the default material",
@@ -306,6 +311,50 @@ pub fn shader_for(m: &tobj::Material, texture: Option<Arc<Texture>>) -> Arc<Shad
         });
     }
     Arc::new(base)
+}
+
+/// What of MTL material `m` the shader from [`shader_for`] does not
+/// render, named for a warning: maps other than `map_Kd`, emission,
+/// transparency short of glass, and `illum` modes outside 1 to 7.
+pub(super) fn ignored_features(m: &tobj::Material) -> Vec<&'static str> {
+    let mut out = Vec::new();
+    let maps = [
+        (&m.normal_texture, "bump maps (map_Bump)"),
+        (&m.specular_texture, "specular maps (map_Ks)"),
+        (&m.shininess_texture, "shininess maps (map_Ns)"),
+        (&m.dissolve_texture, "transparency maps (map_d)"),
+        (&m.ambient_texture, "ambient maps (map_Ka)"),
+    ];
+    out.extend(
+        maps.iter()
+            .filter(|(t, _)| t.is_some())
+            .map(|(_, name)| *name),
+    );
+    if m.emissive.is_some_and(|e| e.iter().any(|&c| c > 0.0)) {
+        out.push("emission (Ke)");
+    }
+    let glass = matches!(m.illumination_model, Some(4 | 6 | 7))
+        || (m.dissolve.is_some_and(|d| d < 1.0) && m.optical_density.is_some_and(|n| n > 1.0));
+    if !glass && m.dissolve.is_some_and(|d| d < 1.0) {
+        out.push("transparency (d below 1)");
+    }
+    match m.illumination_model {
+        Some(0) => out.push("illum 0 (colour without lighting)"),
+        Some(8 | 9) => out.push("illum 8 and 9 (reflection without ray tracing)"),
+        Some(10) => out.push("illum 10 (shadow matte)"),
+        _ => {}
+    }
+    let unknown = |k: &str| {
+        [
+            "map_", "bump", "disp", "decal", "refl", "norm", "Pr", "Pm", "Ps", "Pc",
+        ]
+        .iter()
+        .any(|p| k.starts_with(p))
+    };
+    if m.unknown_param.keys().any(|k| unknown(k)) {
+        out.push("other maps and PBR parameters (disp, decal, refl, norm, Pr, Pm...)");
+    }
+    out
 }
 
 /// Reads a number the way C's `atof` does: the longest prefix that is a

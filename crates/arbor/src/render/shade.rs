@@ -5,7 +5,7 @@
 use glam::DVec3;
 
 use crate::flatten::Hit;
-use crate::light::Light;
+use crate::light::{spot_falloff, Light};
 use crate::scene::{Scene, Variant};
 use crate::shader::{fresnel_exact, fresnel_exact_2015, schlick, schlick_r0, Fresnel, Shader};
 use crate::stats::{NoStats, RayKind, RayStats};
@@ -157,7 +157,7 @@ impl<'a> Integrator<'a> {
         match shader {
             Shader::Lambertian { diffuse, texture } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                self.lights(x, stats, |l, e| {
+                self.lights(x, x + hit.shadow_offset, stats, |l, e| {
                     let nl = n.dot(l);
                     if nl > 0.0 {
                         kd * e * nl
@@ -173,7 +173,7 @@ impl<'a> Integrator<'a> {
                 texture,
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                self.lights(x, stats, |l, e| {
+                self.lights(x, x + hit.shadow_offset, stats, |l, e| {
                     let nl = n.dot(l);
                     let h = (l + v).normalize();
                     let nh = n.dot(h);
@@ -234,6 +234,24 @@ impl<'a> Integrator<'a> {
                     (1.0 - f) * below + f * reflected
                 }
             }
+            Shader::Reflective {
+                reflectance,
+                substrate,
+            } => {
+                let c = n.dot(v).clamp(0.0, 1.0);
+                let f = *reflectance + (DVec3::ONE - *reflectance) * (1.0 - c).powi(5);
+                let r = 2.0 * n.dot(v) * n - v;
+                let reflected = self.trace_secondary(
+                    x,
+                    r,
+                    depth + 1,
+                    contrib * f.max_element(),
+                    RayKind::Reflection,
+                    stats,
+                );
+                let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                (DVec3::ONE - f) * below + f * reflected
+            }
             Shader::Glass {
                 refractive_index: eta,
             } => {
@@ -264,7 +282,7 @@ impl<'a> Integrator<'a> {
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
                 let m2 = roughness * roughness;
-                self.lights(x, stats, |l, e| {
+                self.lights(x, x + hit.shadow_offset, stats, |l, e| {
                     let nl = n.dot(l);
                     let nv = n.dot(v);
                     if nl <= 0.0 || nv <= 0.0 {
@@ -364,16 +382,19 @@ impl<'a> Integrator<'a> {
     }
 
     /// Sums `f(l, E)` over the lights that reach `x` unshadowed, where `l` is
-    /// the unit direction to the light and `E` its irradiance factor.
+    /// the unit direction to the light and `E` its irradiance factor; the
+    /// shadow rays start from `from` (`x`, or `x` lifted off a coarse
+    /// smooth mesh: [`crate::terminator`]).
     fn lights<S: RayStats>(
         &self,
         x: DVec3,
+        from: DVec3,
         stats: &mut S,
         mut f: impl FnMut(DVec3, DVec3) -> DVec3,
     ) -> DVec3 {
         let mut sum = DVec3::ZERO;
         for light in &self.scene.lights {
-            if let Some((l, e)) = self.light_at(light, x, stats) {
+            if let Some((l, e)) = self.light_at(light, x, from, stats) {
                 sum += f(l, e);
             }
         }
@@ -381,13 +402,27 @@ impl<'a> Integrator<'a> {
     }
 
     /// Direction to and irradiance factor of `light` at `x`, or `None` when
-    /// something lies in between (spec §4 shadow rays, §6 falloff).
+    /// something lies between it and `from` (spec §4 shadow rays, §6
+    /// falloff).
     fn light_at<S: RayStats>(
         &self,
         light: &Light,
         x: DVec3,
+        from: DVec3,
         stats: &mut S,
     ) -> Option<(DVec3, DVec3)> {
+        let shadowed = |this: &Self, to: DVec3, stats: &mut S| match light {
+            Light::Directional { .. } => this.occluded(from, to, T_EPSILON, f64::MAX, stats),
+            _ => {
+                let d = to - from;
+                match this.scene.variant {
+                    Variant::Cornell2010 if matches!(light, Light::Point { .. }) => {
+                        this.occluded(from, d, T_EPSILON, 1.0, stats)
+                    }
+                    _ => this.occluded(from, d.normalize(), T_EPSILON, d.length(), stats),
+                }
+            }
+        };
         match (self.scene.variant, light) {
             (
                 Variant::Cornell2010,
@@ -397,8 +432,7 @@ impl<'a> Integrator<'a> {
                 },
             ) => {
                 let to_light = *position - x;
-                (!self.occluded(x, to_light, T_EPSILON, 1.0, stats))
-                    .then(|| (to_light.normalize(), *intensity))
+                (!shadowed(self, *position, stats)).then(|| (to_light.normalize(), *intensity))
             }
             (
                 Variant::Cornell2015,
@@ -410,8 +444,25 @@ impl<'a> Integrator<'a> {
                 let to_light = *position - x;
                 let dist = to_light.length();
                 let l = to_light.normalize();
-                (!self.occluded(x, l, T_EPSILON, dist, stats))
-                    .then(|| (l, *intensity / (dist * dist)))
+                (!shadowed(self, *position, stats)).then(|| (l, *intensity / (dist * dist)))
+            }
+            (
+                _,
+                Light::Spot {
+                    position,
+                    direction,
+                    intensity,
+                    cos_inner,
+                    cos_outer,
+                },
+            ) => {
+                // Only models have spots: 2015's 1/r² in either variant.
+                let to_light = *position - x;
+                let dist = to_light.length();
+                let l = to_light.normalize();
+                let falloff = spot_falloff(-l.dot(*direction), *cos_inner, *cos_outer);
+                (falloff > 0.0 && !shadowed(self, *position, stats))
+                    .then(|| (l, *intensity * (falloff / (dist * dist))))
             }
             (
                 _,
@@ -421,7 +472,7 @@ impl<'a> Integrator<'a> {
                 },
             ) => {
                 let l = direction.normalize();
-                (!self.occluded(x, l, T_EPSILON, f64::MAX, stats)).then_some((l, *intensity))
+                (!shadowed(self, l, stats)).then_some((l, *intensity))
             }
         }
     }
@@ -432,10 +483,11 @@ fn texture_or(
     hit: &Hit,
     base: DVec3,
 ) -> DVec3 {
-    // A texture first, then the mesh's vertex colours (models only; both
-    // linear), then the shader's own colour.
-    match (texture, hit.uv) {
-        (Some(t), Some(uv)) => t.lookup(uv.x, uv.y),
+    // A texture times the mesh's vertex colours (models only; both
+    // linear), else the vertex colours, else the shader's own colour.
+    match (texture, hit.uv, hit.color) {
+        (Some(t), Some(uv), Some(c)) => t.lookup(uv.x, uv.y) * c,
+        (Some(t), Some(uv), None) => t.lookup(uv.x, uv.y),
         _ => hit.color.unwrap_or(base),
     }
 }

@@ -58,6 +58,11 @@ pub struct MeshSurface {
     /// turns the far side black. The course's scenes are one-sided, as its
     /// reference renderer is.
     pub two_sided: bool,
+    /// Whether shadow rays start from the point lifted toward the surface
+    /// the interpolated normals describe ([`crate::terminator`]), which
+    /// softens the shadow terminator of coarse smooth meshes. Imported
+    /// models do; the course's scenes do not (their references are exact).
+    pub soft_terminator: bool,
 }
 
 impl Surface {

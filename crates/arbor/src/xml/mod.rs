@@ -935,6 +935,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                     data,
                     shader,
                     two_sided: false,
+                    soft_terminator: false,
                 })
             }
             _ => {
