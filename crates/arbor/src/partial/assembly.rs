@@ -174,18 +174,8 @@ fn missing_message(parts: &[(PathBuf, PartHeader)], reference: &PartHeader, pixe
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::partial::part_file::tests::header;
     use crate::partial::tile_region;
-
-    fn header(region: crate::render::Region, tile: Option<(u32, u32)>) -> PartHeader {
-        PartHeader {
-            width: 10,
-            height: 6,
-            region,
-            tile,
-            variant: Variant::Cornell2015,
-            scene_hash: [3; 32],
-        }
-    }
 
     #[test]
     fn assembly_errors() {

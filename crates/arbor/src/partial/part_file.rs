@@ -6,8 +6,8 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 
 use glam::DVec3;
+use sha2::{Digest, Sha256};
 
-use super::sha256::Sha256;
 use super::tile::tile_region;
 use crate::film::{atomic_write, Film, WriteError};
 use crate::render::Region;
@@ -117,6 +117,9 @@ impl PartHeader {
             1 => Variant::Cornell2015,
             v => return Err(format!("unknown conventions code {v}")),
         };
+        if bytes[45..48] != [0; 3] {
+            return Err("damaged part header (bytes 45..48 are not zero)".into());
+        }
         let mut scene_hash = [0u8; 32];
         scene_hash.copy_from_slice(&bytes[48..80]);
         Ok(PartHeader {
@@ -181,7 +184,7 @@ impl Partial {
             sha.update(&row);
             out.write_all(&row)?;
         }
-        out.write_all(&sha.finish())
+        out.write_all(&sha.finalize())
     }
 
     /// Reads and checks a whole part file (header, length, checksum).
@@ -214,7 +217,7 @@ impl Partial {
         let (body, sum) = bytes.split_at(bytes.len() - 32);
         let mut sha = Sha256::new();
         sha.update(body);
-        if sha.finish() != sum {
+        if sha.finalize().as_slice() != sum {
             return Err("damaged part file (checksum mismatch)".into());
         }
         let r = header.region;
@@ -279,21 +282,26 @@ impl fmt::Display for PartError {
 impl std::error::Error for PartError {}
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
+
+    /// The header of a part of a 10x6 image.
+    pub(in crate::partial) fn header(region: Region, tile: Option<(u32, u32)>) -> PartHeader {
+        PartHeader {
+            width: 10,
+            height: 6,
+            region,
+            tile,
+            variant: Variant::Cornell2015,
+            scene_hash: [3; 32],
+        }
+    }
 
     fn part(region: Region, tile: Option<(u32, u32)>) -> Partial {
         let mut film = Film::new(region.x1 - region.x0, region.y1 - region.y0);
         film.set(0, 0, DVec3::new(0.1, -0.0, f64::MAX));
         Partial {
-            header: PartHeader {
-                width: 10,
-                height: 6,
-                region,
-                tile,
-                variant: Variant::Cornell2015,
-                scene_hash: [3; 32],
-            },
+            header: header(region, tile),
             film,
         }
     }
@@ -316,5 +324,49 @@ mod tests {
         assert!(Partial::parse(b"PNG").unwrap_err().contains("magic"));
         let missing = Partial::read(&dir.path().join("none.part")).unwrap_err();
         assert!(missing.message.contains("missing"));
+    }
+
+    /// docs/cluster.md is where the layout is documented: its table must
+    /// say what `encode` writes.
+    #[test]
+    fn the_documented_layout_is_the_written_one() {
+        let doc = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../docs/cluster.md"
+        ))
+        .unwrap();
+        let rows = [
+            "| 0 | 8 | magic `ARBORPRT` |",
+            "| 8 | 4 | format version (`u32`, 1) |",
+            "| 12 | 8 | full image width, height (`u32` each) |",
+            "| 20 | 16 | region `x0, y0, x1, y1` (`u32` each) |",
+            "| 36 | 8 | tile `K`, `N` (`u32` each; `0xFFFFFFFF, 0` for a free region) |",
+            "| 44 | 1 | conventions (0 = Cornell 2010, 1 = 2015) |",
+            "| 45 | 3 | zero |",
+            "| 48 | 32 | scene hash |",
+            "| 80 | 24 per pixel | linear `R, G, B` (`f64` each), row by row |",
+            "| end − 32 | 32 | SHA-256 of all bytes before |",
+        ];
+        for row in rows {
+            assert!(doc.contains(row), "docs/cluster.md lacks the row {row}");
+        }
+        let p = part(tile_region(10, 6, 1, 3).unwrap(), Some((1, 3)));
+        let mut bytes = Vec::new();
+        p.encode(&mut bytes).unwrap();
+        let word = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        assert_eq!(&bytes[0..8], b"ARBORPRT");
+        assert_eq!(word(8), 1);
+        assert_eq!((word(12), word(16)), (10, 6));
+        assert_eq!((word(20), word(24), word(28), word(32)), (0, 2, 10, 4));
+        assert_eq!((word(36), word(40)), (1, 3));
+        assert_eq!(bytes[44..48], [1, 0, 0, 0]);
+        assert_eq!(bytes[48..80], [3; 32]);
+        assert_eq!(bytes[80..88], 0.1f64.to_le_bytes());
+        assert_eq!(bytes.len(), 80 + 10 * 2 * 24 + 32);
+        let sum = Sha256::digest(&bytes[..bytes.len() - 32]);
+        assert_eq!(bytes[bytes.len() - 32..], sum[..]);
+        // The zero bytes are checked, so they can carry meaning one day.
+        bytes[46] = 1;
+        assert!(PartHeader::decode(&bytes).unwrap_err().contains("45..48"));
     }
 }
