@@ -35,7 +35,7 @@ pub struct PartHeader {
     pub tile: Option<(u32, u32)>,
     /// The scene's conventions (needed to convert to 8 bits).
     pub variant: Variant,
-    /// [`scene_hash`] of the scene and settings it was rendered from.
+    /// [`scene_hash`](super::scene_hash()) of the scene and settings it was rendered from.
     pub scene_hash: [u8; 32],
 }
 
@@ -170,7 +170,7 @@ impl Partial {
         }
         let mut sha = Sha256::new();
         let header = self.header.encode();
-        sha.update(&header);
+        sha.update(header);
         out.write_all(&header)?;
         let mut row = Vec::with_capacity(self.film.width() as usize * 24);
         for y in 0..self.film.height() {
