@@ -1,26 +1,19 @@
 //! Traversal of the shared course meshes (`buddha100k.msh`, `bunny10k.msh`)
 //! through every acceleration structure, with criterion. The meshes live in
-//! `../shared` beside the repository (or where `ARBOR_SHARED` points); without
-//! them the bench says so and measures nothing, so `cargo bench` still runs
-//! on a machine that lacks the data.
+//! `../shared` beside the repository (or where `ARBOR_SHARED` points; found by
+//! `arbor-test-data`); without them the bench says so and measures nothing,
+//! so `cargo bench` still runs on a machine that lacks the data (unless
+//! `ARBOR_REQUIRE_TEST_DATA=1`).
 //!
 //! Rays: a 128 x 128 pinhole camera framing the mesh, the same for every
 //! structure, traced with the watertight `f32` triangle test as `arbor
 //! trace` does.
 
 use std::hint::black_box;
-use std::path::PathBuf;
 
 use arbor_accel::numerics::{intersect_triangle_sheared, RayShear};
 use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-
-/// Where the shared data lives.
-fn shared_dir() -> PathBuf {
-    std::env::var_os("ARBOR_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared")))
-}
 
 /// Camera rays framing the bounding sphere of `tris` (45 degree field of view).
 fn camera_rays(tris: &[[Vec3; 3]], side: u32) -> Vec<Ray> {
@@ -67,9 +60,10 @@ fn trace(accel: &Accel, tris: &[[Vec3; 3]], rays: &[Ray]) -> usize {
 }
 
 fn shared_meshes(c: &mut Criterion) {
-    let dir = shared_dir().join("scenes/cornell-2010/TEST_B");
     for name in ["buddha100k.msh", "bunny10k.msh"] {
-        let path = dir.join(name);
+        let Some(path) = arbor_test_data::test_b(name) else {
+            continue;
+        };
         let mesh = match arbor::load::load_ray_mesh(&path) {
             Ok(m) => m,
             Err(e) => {

@@ -30,7 +30,9 @@ use arbor_accel::{
 use clap::Args;
 use glam::DVec3;
 use rayon::prelude::*;
+use serde_json::{json, Value};
 
+use crate::accel_arg::AccelChoice;
 use crate::InputError;
 
 mod plot;
@@ -45,9 +47,15 @@ pub struct BenchArgs {
     /// benched through the renderer's tracer).
     pub input: PathBuf,
     /// Accelerators: `all` (every one except the brute-force `list`) or a
-    /// comma-separated list of names.
-    #[arg(long, value_name = "all|NAME,NAME", default_value = "all")]
-    pub accel: String,
+    /// comma-separated list of names (`all` may be one of them).
+    #[arg(
+        long,
+        value_name = "all|NAME,NAME",
+        default_value = "all",
+        value_delimiter = ',',
+        value_parser = crate::accel_arg::parse_choice
+    )]
+    pub accel: Vec<AccelChoice>,
     /// Ray kinds, comma-separated: `primary`, `shadow`, `diffuse` (default: all three).
     #[arg(long, value_name = "KINDS")]
     pub rays: Option<String>,
@@ -93,27 +101,6 @@ impl RayKind {
             RayKind::Diffuse => "diffuse",
         }
     }
-}
-
-/// Parses `--accel`: `all` or a comma-separated list of known names.
-pub fn parse_accels(spec: &str) -> Result<Vec<AccelKind>, InputError> {
-    if spec.trim() == "all" {
-        return Ok(AccelKind::ALL
-            .iter()
-            .copied()
-            .filter(|&k| k != AccelKind::List)
-            .collect());
-    }
-    let mut out = Vec::new();
-    for name in spec.split(',').map(str::trim) {
-        let kind = name
-            .parse::<AccelKind>()
-            .map_err(|e| InputError(format!("--accel: {e} (or 'all')")))?;
-        if !out.contains(&kind) {
-            out.push(kind);
-        }
-    }
-    Ok(out)
 }
 
 /// Parses `--rays`: a comma-separated list of ray kinds, kept in report order.
@@ -590,7 +577,7 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
 /// Runs `arbor bench`.
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     // Everything the user can get wrong is checked before the slow part.
-    let accels = parse_accels(&args.accel)?;
+    let accels = crate::accel_arg::expand(&args.accel);
     let kinds = parse_rays(args.rays.as_deref())?;
     if let Some(p) = &args.plot {
         crate::output::check_writable(p, "--plot")?;
@@ -745,99 +732,50 @@ pub fn markdown(report: &Report) -> String {
     s
 }
 
-/// A JSON string literal.
-fn json_string(text: &str) -> String {
-    let mut s = String::with_capacity(text.len() + 2);
-    s.push('"');
-    for c in text.chars() {
-        match c {
-            '"' => s.push_str("\\\""),
-            '\\' => s.push_str("\\\\"),
-            '\n' => s.push_str("\\n"),
-            '\r' => s.push_str("\\r"),
-            '\t' => s.push_str("\\t"),
-            c if (c as u32) < 0x20 => {
-                let _ = write!(s, "\\u{:04x}", c as u32);
-            }
-            c => s.push(c),
-        }
-    }
-    s.push('"');
-    s
-}
-
-/// A JSON number; JSON has no infinity or NaN, so those become `null`.
-fn json_number(x: f64) -> String {
-    if x.is_finite() {
-        format!("{x}")
-    } else {
-        "null".into()
-    }
-}
-
-/// The report as the JSON document of `--json`.
+/// The report as the JSON document of `--json` (a number that is not
+/// finite, which JSON cannot hold, is `null`).
 pub fn json(report: &Report) -> String {
-    let mut s = String::new();
-    let _ = write!(
-        s,
-        "{{\"input\": {}, \"primitives\": {}, \"threads\": {}, \"results\": [",
-        json_string(&report.input),
-        report.primitives,
-        report.threads
-    );
-    for (i, r) in report.results.iter().enumerate() {
-        if i > 0 {
-            s.push(',');
-        }
-        let _ = write!(
-            s,
-            "\n  {{\"accel\": {}, \"build_ms\": {}, \"memory_bytes\": {}, \"nodes\": {}, \
-             \"leaves\": {}, \"max_depth\": {}, \"sah_cost\": {}, \"rays\": {{",
-            json_string(r.accel.name()),
-            json_number(r.build_ms),
-            r.stats.memory_bytes,
-            r.stats.nodes,
-            r.stats.leaves,
-            r.stats.max_depth,
-            r.stats.sah_cost.map_or_else(|| "null".into(), json_number),
-        );
-        for (j, k) in r.rays.iter().enumerate() {
-            if j > 0 {
-                s.push_str(", ");
-            }
-            let _ = write!(
-                s,
-                "{}: {{\"rays\": {}, \"mrays_per_s\": {}, \"nodes_per_ray\": {}, \
-                 \"tests_per_ray\": {}}}",
-                json_string(k.kind.name()),
-                k.rays,
-                json_number(k.mrays_per_s),
-                json_number(k.nodes_per_ray),
-                json_number(k.tests_per_ray)
-            );
-        }
-        s.push_str("}}");
-    }
-    s.push_str("\n]}\n");
-    s
+    let results: Vec<Value> = report
+        .results
+        .iter()
+        .map(|r| {
+            let rays: serde_json::Map<String, Value> = r
+                .rays
+                .iter()
+                .map(|k| {
+                    let measured = json!({
+                        "rays": k.rays,
+                        "mrays_per_s": k.mrays_per_s,
+                        "nodes_per_ray": k.nodes_per_ray,
+                        "tests_per_ray": k.tests_per_ray,
+                    });
+                    (k.kind.name().to_string(), measured)
+                })
+                .collect();
+            json!({
+                "accel": r.accel.name(),
+                "build_ms": r.build_ms,
+                "memory_bytes": r.stats.memory_bytes,
+                "nodes": r.stats.nodes,
+                "leaves": r.stats.leaves,
+                "max_depth": r.stats.max_depth,
+                "sah_cost": r.stats.sah_cost,
+                "rays": rays,
+            })
+        })
+        .collect();
+    let doc = json!({
+        "input": report.input,
+        "primitives": report.primitives,
+        "threads": report.threads,
+        "results": results,
+    });
+    serde_json::to_string_pretty(&doc).expect("a JSON value always serialises") + "\n"
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn accel_lists() {
-        let all = parse_accels("all").unwrap();
-        assert_eq!(all.len(), AccelKind::ALL.len() - 1);
-        assert!(!all.contains(&AccelKind::List));
-        assert_eq!(
-            parse_accels("grid,kdtree,grid").unwrap(),
-            vec![AccelKind::Grid, AccelKind::KdTree]
-        );
-        assert!(parse_accels("grid,octree").is_err());
-        assert!(parse_accels("").is_err());
-    }
 
     #[test]
     fn ray_lists() {
@@ -867,9 +805,50 @@ mod tests {
     }
 
     #[test]
-    fn json_escapes_and_nulls() {
-        assert_eq!(json_string("a\"b\\c\n"), "\"a\\\"b\\\\c\\n\"");
-        assert_eq!(json_number(f64::INFINITY), "null");
-        assert_eq!(json_number(1.5), "1.5");
+    fn json_escapes_text_and_writes_non_finite_numbers_as_null() {
+        let report = Report {
+            input: "a\"b\\c\n.obj".into(),
+            primitives: 12,
+            threads: 3,
+            results: vec![AccelResult {
+                accel: AccelKind::Grid,
+                build_ms: 1.5,
+                stats: AccelStats {
+                    nodes: 7,
+                    leaves: 4,
+                    max_depth: 2,
+                    memory_bytes: 640,
+                    sah_cost: None,
+                },
+                rays: vec![RayResult {
+                    kind: RayKind::Shadow,
+                    rays: 100,
+                    mrays_per_s: f64::INFINITY,
+                    nodes_per_ray: 2.25,
+                    tests_per_ray: f64::NAN,
+                }],
+            }],
+        };
+        let doc: Value = serde_json::from_str(&json(&report)).unwrap();
+        assert_eq!(doc["input"], "a\"b\\c\n.obj");
+        assert_eq!(
+            (doc["primitives"].as_u64(), doc["threads"].as_u64()),
+            (Some(12), Some(3))
+        );
+        let r = &doc["results"][0];
+        assert_eq!(r["accel"], "grid");
+        assert_eq!(r["build_ms"].as_f64(), Some(1.5));
+        assert_eq!(r["memory_bytes"].as_u64(), Some(640));
+        assert_eq!(
+            (r["nodes"].as_u64(), r["leaves"].as_u64()),
+            (Some(7), Some(4))
+        );
+        assert_eq!(r["max_depth"].as_u64(), Some(2));
+        assert!(r["sah_cost"].is_null());
+        let shadow = &r["rays"]["shadow"];
+        assert_eq!(shadow["rays"].as_u64(), Some(100));
+        assert!(shadow["mrays_per_s"].is_null());
+        assert_eq!(shadow["nodes_per_ray"].as_f64(), Some(2.25));
+        assert!(shadow["tests_per_ray"].is_null());
     }
 }

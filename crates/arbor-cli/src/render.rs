@@ -30,7 +30,7 @@ pub struct RenderArgs {
     #[arg(short, long)]
     pub output: Option<PathBuf>,
     /// Acceleration structure (`list` is brute force).
-    #[arg(long, default_value_t = AccelKind::DEFAULT)]
+    #[arg(long, value_name = "NAME", default_value_t = AccelKind::DEFAULT, value_parser = crate::accel_arg::parse)]
     pub accel: AccelKind,
     /// Worker threads (default: all cores). The image is the same for any number.
     #[arg(long)]

@@ -1,26 +1,8 @@
 //! `arbor render MODEL` through the real binary: a model file becomes a
 //! picture, a broken one a located error with exit status 2 and no file.
 
-use std::path::PathBuf;
-
 mod support;
 use support::arbor_in as arbor;
-
-/// The assimp test models, or `None` (after saying why) when absent and
-/// `ARBOR_REQUIRE_TEST_DATA=1` is not set.
-fn models() -> Option<PathBuf> {
-    let dir = PathBuf::from("/usr/share/assimp/models");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
-        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing (apt-get install assimp-testmodels)",
-        dir.display()
-    );
-    eprintln!("skipping: {} is absent", dir.display());
-    None
-}
 
 #[test]
 fn a_written_model_renders_to_a_picture_with_the_model_in_it() {
@@ -71,7 +53,9 @@ fn broken_models_exit_2_without_output() {
 
 #[test]
 fn assimp_models_render_and_invalid_ones_fail() {
-    let Some(models) = models() else { return };
+    let Some(models) = arbor_test_data::assimp_models() else {
+        return;
+    };
     let dir = tempfile::tempdir().unwrap();
     let good = models.join("PLY/cube_binary.ply");
     let o = arbor(
@@ -100,7 +84,9 @@ fn assimp_models_render_and_invalid_ones_fail() {
 
 #[test]
 fn info_reports_the_engine_structure() {
-    let Some(models) = models() else { return };
+    let Some(models) = arbor_test_data::assimp_models() else {
+        return;
+    };
     let glb = models.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
     let dir = tempfile::tempdir().unwrap();
     let o = arbor(dir.path(), &["info", glb.to_str().unwrap()]);
@@ -147,7 +133,9 @@ fn unknown_extensions_are_refused_before_parsing() {
 
 #[test]
 fn info_counts_only_faces_of_an_obj_with_polylines() {
-    let Some(models) = models() else { return };
+    let Some(models) = arbor_test_data::assimp_models() else {
+        return;
+    };
     let o = arbor(&models, &["info", "OBJ/testmixed.obj"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -206,7 +194,9 @@ fn up_and_camera_flags() {
 /// JSON with `--json`, written only when everything succeeded.
 #[test]
 fn info_describes_a_model_and_writes_json() {
-    let Some(models) = models() else { return };
+    let Some(models) = arbor_test_data::assimp_models() else {
+        return;
+    };
     let spider = models.join("OBJ/spider.obj");
     let dir = tempfile::tempdir().unwrap();
     let o = arbor(

@@ -428,20 +428,9 @@ fn info_reports_hierarchy_and_instancing() {
 #[test]
 fn bunny_field_generator_makes_a_nested_instanced_scene() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let shared = std::env::var_os("ARBOR_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join("../shared"));
-    let mesh = shared.join("scenes/cornell-2010/TEST_B/bunny10k.msh");
-    if !mesh.exists() {
-        assert_ne!(
-            std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref(),
-            Ok("1"),
-            "missing {}",
-            mesh.display()
-        );
-        eprintln!("skipped: {} not found", mesh.display());
+    let Some(mesh) = arbor_test_data::test_b("bunny10k.msh") else {
         return;
-    }
+    };
     let dir = tempfile::tempdir().unwrap();
     let status = Command::new("python3")
         .arg(root.join("scripts/bunny_field.py"))

@@ -393,24 +393,6 @@ fn failed_run_keeps_an_existing_output_intact() {
     assert_eq!(std::fs::read(&hits).unwrap(), b"previous");
 }
 
-/// `../shared/scenes/cornell-2010/TEST_B/NAME`, or `None` (after printing why)
-/// when the shared data is absent and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
-fn shared_mesh(name: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/scenes/cornell-2010/TEST_B")
-        .join(name);
-    if path.is_file() {
-        return Some(path);
-    }
-    assert!(
-        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
-        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing",
-        path.display()
-    );
-    eprintln!("skipping: shared test data {} is absent", path.display());
-    None
-}
-
 /// Deterministic rays from a sphere around `mesh` towards points inside its
 /// bounding box, some with a short `tfar`, so that hits, misses and clipped
 /// rays all occur.
@@ -451,7 +433,7 @@ fn rays_around(mesh: &Path, n: usize) -> Vec<Vec<u8>> {
 
 #[test]
 fn every_accelerator_agrees_with_the_list_on_a_shared_mesh() {
-    let Some(mesh) = shared_mesh("bunny1k.msh") else {
+    let Some(mesh) = arbor_test_data::test_b("bunny1k.msh") else {
         return;
     };
     let f = Fixture::new(&rays_around(&mesh, 4000));

@@ -427,9 +427,11 @@ impl FlatScene {
         };
         match prim.shape {
             Shape::Sphere { center, radius } => {
-                sphere::intersect(center, radius, o, d, tmin, tmax, is2015).map(|t| Candidate {
-                    t,
-                    aux: DVec3::ZERO,
+                sphere::intersect(center, radius, o, d, tmin, tmax, self.variant).map(|t| {
+                    Candidate {
+                        t,
+                        aux: DVec3::ZERO,
+                    }
                 })
             }
             Shape::Box { min, max } => {

@@ -17,23 +17,6 @@ use arbor::tracer::Tracer;
 use arbor::xml::load_scene;
 use arbor_accel::AccelKind;
 
-fn shared_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("ARBOR_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared"));
-    if dir.join("scenes").is_dir() {
-        return Some(dir);
-    }
-    if std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() == Ok("1") {
-        panic!(
-            "ARBOR_REQUIRE_TEST_DATA=1 but the shared test data is not at {}",
-            dir.display()
-        );
-    }
-    eprintln!("skipped: shared test data not found at {}", dir.display());
-    None
-}
-
 fn scenes(shared: &std::path::Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
     for sub in [
@@ -66,15 +49,18 @@ fn render_bytes(path: &std::path::Path, kind: AccelKind) -> (Vec<u8>, u32, u32) 
 
 #[test]
 fn shared_scenes_match_their_references() {
-    let Some(shared) = shared_dir() else { return };
-    let all = scenes(&shared);
+    let Some(scene_dir) = arbor_test_data::shared("scenes") else {
+        return;
+    };
+    let shared = scene_dir.parent().unwrap();
+    let all = scenes(shared);
     assert!(
         all.len() >= 20,
         "expected the shared scenes, found {}",
         all.len()
     );
     for path in all {
-        let name = path.strip_prefix(&shared).unwrap().display().to_string();
+        let name = path.strip_prefix(shared).unwrap().display().to_string();
         let reference = image::open(format!("{}.soln.png", path.display()))
             .unwrap()
             .to_rgb8();

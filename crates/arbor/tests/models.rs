@@ -3,7 +3,7 @@
 //! the error paths. Without the package the tests that need it report
 //! themselves skipped, unless `ARBOR_REQUIRE_TEST_DATA=1`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
 use arbor::light::Light;
@@ -11,28 +11,8 @@ use arbor::load::LoadError;
 use arbor::load::{frame, load_model, load_model_scene};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
+use arbor_test_data::assimp_models as models;
 use glam::DVec3;
-
-/// The assimp test models folder, or `None` (after saying why) when the
-/// package is not installed and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
-fn models() -> Option<PathBuf> {
-    let dir = PathBuf::from(
-        std::env::var("ARBOR_ASSIMP_MODELS").unwrap_or_else(|_| "/usr/share/assimp/models".into()),
-    );
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    assert!(
-        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
-        "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing (apt-get install assimp-testmodels)",
-        dir.display()
-    );
-    eprintln!(
-        "skipping: {} is absent (apt-get install assimp-testmodels)",
-        dir.display()
-    );
-    None
-}
 
 /// The shaders of every mesh as placed (each placement once), with whether
 /// the mesh has texture coordinates.

@@ -61,7 +61,7 @@ pub struct SlurmArgs {
     #[arg(long, value_name = "C", default_value_t = 1)]
     pub cpus_per_task: u32,
     /// Acceleration structure of the render tasks (pixels never depend on it).
-    #[arg(long, default_value_t = AccelKind::DEFAULT)]
+    #[arg(long, value_name = "NAME", default_value_t = AccelKind::DEFAULT, value_parser = crate::accel_arg::parse)]
     pub accel: AccelKind,
     /// Print the job scripts and what would be submitted; submit nothing.
     #[arg(long)]

@@ -140,30 +140,13 @@ pub fn load_scene_with(path: &Path, options: &ModelOptions) -> Result<LoadedScen
 
 #[cfg(test)]
 mod tests {
-    use std::path::PathBuf;
-
     use super::*;
-
-    /// `../shared/scenes/cornell-2010/TEST_B`, or `None` (after printing why)
-    /// when the shared data is absent and `ARBOR_REQUIRE_TEST_DATA=1` is not set.
-    fn test_b() -> Option<PathBuf> {
-        let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../../shared/scenes/cornell-2010/TEST_B");
-        if dir.is_dir() {
-            return Some(dir);
-        }
-        assert!(
-            std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref() != Ok("1"),
-            "ARBOR_REQUIRE_TEST_DATA=1 but {} is missing",
-            dir.display()
-        );
-        eprintln!("skipping: shared test data {} is absent", dir.display());
-        None
-    }
 
     #[test]
     fn shared_msh_files_load() {
-        let Some(dir) = test_b() else { return };
+        let Some(dir) = arbor_test_data::shared("scenes/cornell-2010/TEST_B") else {
+            return;
+        };
         let bunny = load_msh(&dir.join("bunny500.msh")).unwrap();
         assert_eq!(bunny.positions.len(), 293);
         assert_eq!(bunny.triangles.len(), 500);

@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::scene::Variant;
 use crate::shader::Shader;
 
 /// A sphere given by centre and radius (in its own space).
@@ -19,8 +20,8 @@ pub struct Sphere {
 
 /// The nearer root of the ray/sphere quadratic lying strictly inside
 /// `(tmin, tmax)`, else the farther one (a ray starting on or inside the
-/// sphere must find its far side: spec §9.6). `cornell2015` selects the 2015
-/// framework's algebra, which rounds differently.
+/// sphere must find its far side: spec §9.6), in the algebra of the
+/// `variant`'s framework (the two round differently).
 pub fn intersect(
     center: DVec3,
     radius: f64,
@@ -28,9 +29,9 @@ pub fn intersect(
     d: DVec3,
     tmin: f64,
     tmax: f64,
-    cornell2015: bool,
+    variant: Variant,
 ) -> Option<f64> {
-    let (t1, t2) = if cornell2015 {
+    let (t1, t2) = if variant == Variant::Cornell2015 {
         let q = o - center;
         let dd = d.dot(d);
         let qd = q.dot(d);
@@ -64,7 +65,7 @@ mod tests {
     fn near_then_far_root() {
         let o = DVec3::new(0.0, 0.0, 5.0);
         let d = DVec3::NEG_Z;
-        for year in [false, true] {
+        for year in [Variant::Cornell2010, Variant::Cornell2015] {
             assert_eq!(
                 intersect(DVec3::ZERO, 1.0, o, d, 0.0, 1e30, year),
                 Some(4.0)
