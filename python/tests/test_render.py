@@ -163,3 +163,31 @@ def test_loader_warnings_become_python_warnings(tmp_path):
     flat.write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n")
     with pytest.warns(UserWarning, match=f"{flat}: warning: every triangle has zero area"):
         arbor.render(flat, width=8, height=8)
+
+
+def test_ctrl_c_stops_a_render(scene):
+    """SIGINT while a render runs (one that would take many minutes) raises
+    KeyboardInterrupt in the caller: the render is cancelled, not waited for."""
+    import signal
+    import sys
+    import time
+
+    code = (
+        "import sys, arbor\n"
+        "print('started', flush=True)\n"
+        "try:\n"
+        f"    arbor.render({str(scene)!r}, width=4000, height=3000, samples=400)\n"
+        "except KeyboardInterrupt:\n"
+        "    print('interrupted', flush=True)\n"
+        "    sys.exit(0)\n"
+        "print('finished', flush=True)\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline() == "started\n"
+        time.sleep(2)  # into the render (the signal must not land before it)
+        p.send_signal(signal.SIGINT)
+        out, _ = p.communicate(timeout=120)
+    finally:
+        p.kill()
+    assert out == "interrupted\n" and p.returncode == 0
