@@ -1,8 +1,8 @@
 //! The `arbor` Python package's native module, `arbor._arbor`: a thin layer
 //! over `arbor-accel`'s mesh queries and `arbor`'s mesh loader, renderer
-//! and image writer. It has no
-//! ray logic of its own: it reads NumPy arrays, calls the library's batch
-//! queries without the GIL, and returns NumPy arrays.
+//! and image writer. It has no ray logic of its own: it reads NumPy arrays,
+//! calls the library's batch queries without the GIL, and returns NumPy
+//! arrays.
 
 mod arrays;
 mod image;
