@@ -9,12 +9,14 @@ parallel with the GIL released, over NumPy arrays::
     hits["t"], hits["triangle"]                   # inf / -1 on a miss
 
 ``arbor.load_mesh(path)`` reads a mesh file with the loader of
-``arbor trace``. ``arbor.trimesh.RayMeshIntersector`` is a drop-in ray
+``arbor trace``. ``arbor.render(path)`` renders a scene or model as
+``arbor render`` does, into a ``(h, w, 3)`` float32 array of linear
+radiance, and ``arbor.write_image(path, image)`` writes it as PNG or EXR. ``arbor.trimesh.RayMeshIntersector`` is a drop-in ray
 intersector for trimesh and ``arbor.RaycastingScene`` follows Open3D's
 ``RaycastingScene``.
 """
 
-from ._arbor import Mesh, load_mesh
+from ._arbor import Mesh, load_mesh, render, write_image
 from .raycasting import RaycastingScene
 
-__all__ = ["Mesh", "load_mesh", "RaycastingScene"]
+__all__ = ["Mesh", "load_mesh", "render", "write_image", "RaycastingScene"]

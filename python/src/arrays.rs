@@ -17,7 +17,7 @@ use pyo3::types::PyDict;
 
 /// `obj` as a NumPy array; other array-likes are converted (as float64 when
 /// `float` says so, otherwise with NumPy's own choice of dtype).
-fn as_ndarray<'py>(
+pub fn as_ndarray<'py>(
     obj: &Bound<'py, PyAny>,
     what: &str,
     float: bool,
@@ -49,7 +49,7 @@ fn check_k3(a: &Bound<'_, PyUntypedArray>, what: &str) -> PyResult<()> {
 }
 
 /// `a`'s shape as Python writes it: `(3, 2)`, `(5,)`.
-fn shape(a: &Bound<'_, PyUntypedArray>) -> String {
+pub fn shape(a: &Bound<'_, PyUntypedArray>) -> String {
     let dims: Vec<String> = a.shape().iter().map(usize::to_string).collect();
     match dims.len() {
         1 => format!("({},)", dims[0]),
@@ -64,7 +64,7 @@ fn dtype_name(a: &Bound<'_, PyUntypedArray>) -> String {
 
 /// `a` borrowed read-only with its float32 or float64 elements, handed to
 /// `f32s` or `f64s`; other dtypes are a `ValueError` naming `what`.
-fn float_elements<'py, D: Dimension, R>(
+pub fn float_elements<'py, D: Dimension, R>(
     a: &Bound<'py, PyUntypedArray>,
     what: &str,
     f32s: impl FnOnce(PyReadonlyArray<'py, f32, D>) -> R,

@@ -40,7 +40,7 @@ pub struct Mesh {
 }
 
 /// The accelerator named `name`.
-fn accel_kind(name: &str) -> PyResult<AccelKind> {
+pub fn accel_kind(name: &str) -> PyResult<AccelKind> {
     name.parse::<AccelKind>()
         .map_err(|e| PyValueError::new_err(format!("accel: {e}")))
 }
@@ -135,9 +135,9 @@ impl Mesh {
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let views = RayArgs::extract(origins, directions, tmin, tmax)?;
-        let views = views.views();
-        let found = py.detach(|| crate::rays::closest(&self.accel, &views.rays()));
+        let args = RayArgs::extract(origins, directions, tmin, tmax)?;
+        let views = args.views();
+        let found = py.detach(|| crate::rays::closest(&self.accel, views));
         found.into_dict(py)
     }
 
@@ -153,7 +153,14 @@ impl Mesh {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let args = RayArgs::extract(origins, directions, tmin, tmax)?;
         let views = args.views();
-        let blocked = py.detach(|| self.accel.occluded_batch(&views.rays()));
+        let mut blocked = vec![false; views.len()];
+        py.detach(|| {
+            views.answer_into(&mut blocked, |rays, out| {
+                for (slot, ray) in out.iter_mut().zip(rays) {
+                    *slot = self.accel.occluded(ray);
+                }
+            })
+        });
         Ok(PyArray1::from_vec(py, blocked))
     }
 
@@ -196,7 +203,14 @@ impl Mesh {
     ) -> PyResult<Bound<'py, PyArray1<u32>>> {
         let args = RayArgs::extract(origins, directions, tmin, tmax)?;
         let views = args.views();
-        let counts = py.detach(|| self.accel.count_batch(&views.rays()));
+        let mut counts = vec![0; views.len()];
+        py.detach(|| {
+            views.answer_into(&mut counts, |rays, out| {
+                for (slot, ray) in out.iter_mut().zip(rays) {
+                    *slot = self.accel.count(ray);
+                }
+            })
+        });
         Ok(PyArray1::from_vec(py, counts))
     }
 
@@ -264,8 +278,14 @@ impl Mesh {
 
 /// Reads a mesh file with the loader of ``arbor trace``, triangles numbered
 /// as it numbers them, and prepares it for queries (``accel`` as for
-/// :class:`Mesh`). Raises OSError naming the file when it is missing or
-/// broken.
+/// :class:`Mesh`): ``.msh``, ``.obj`` (polygons split as fans ``(0, k,
+/// k+1)``), ``.ply``, ``.stl`` (faces in file order, coordinates as stored),
+/// ``.gltf`` and ``.glb``. A glTF file becomes one mesh of every triangle
+/// primitive placed by the default scene's nodes, their transforms applied:
+/// nodes depth first in the scene's order (a node's mesh before its
+/// children), each mesh's primitives and their triangles in file order; a
+/// mesh placed twice appears twice. Raises OSError naming the file when it
+/// is missing or broken.
 #[pyfunction]
 #[pyo3(signature = (path, accel = "bvh-wide"))]
 pub fn load_mesh(py: Python<'_>, path: PathBuf, accel: &str) -> PyResult<Mesh> {

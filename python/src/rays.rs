@@ -70,27 +70,62 @@ pub struct RayViews<'a> {
 }
 
 impl RayViews<'_> {
-    /// The rays, built in parallel.
+    /// How many rays there are.
+    pub fn len(&self) -> usize {
+        self.origins.len()
+    }
+
+    /// Ray `i`.
+    #[inline]
+    fn ray(&self, i: usize) -> Ray {
+        Ray::new(
+            self.origins.get(i),
+            self.directions.get(i),
+            self.tmin.get(i),
+            self.tmax.get(i),
+        )
+    }
+
+    /// Answers every ray into `out` (one slot per ray), in parallel: each
+    /// task builds its chunk of rays where it uses them (no array of every
+    /// ray, and the chunk stays in cache) and hands them to `answer` with
+    /// its slots.
+    pub fn answer_into<T: Send>(self, out: &mut [T], answer: impl Fn(&[Ray], &mut [T]) + Sync) {
+        assert_eq!(out.len(), self.len(), "one answer slot per ray");
+        out.par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each_init(Vec::new, |rays, (c, slots)| {
+                self.chunk(c, rays);
+                answer(rays, slots);
+            });
+    }
+
+    /// Chunk `c` of the rays (`CHUNK` of them, fewer at the end), in `rays`.
+    fn chunk(&self, c: usize, rays: &mut Vec<Ray>) {
+        let end = ((c + 1) * CHUNK).min(self.len());
+        rays.clear();
+        rays.extend((c * CHUNK..end).map(|i| self.ray(i)));
+    }
+
+    /// Every ray, in one array (for the queries whose answers are not one
+    /// per ray).
     pub fn rays(self) -> Vec<Ray> {
-        (0..self.origins.len())
+        (0..self.len())
             .into_par_iter()
-            .map(|i| {
-                Ray::new(
-                    self.origins.get(i),
-                    self.directions.get(i),
-                    self.tmin.get(i),
-                    self.tmax.get(i),
-                )
-            })
+            .map(|i| self.ray(i))
             .collect()
     }
 }
 
+/// Rays per parallel task: enough to amortise the task, few enough to stay
+/// in cache with their answers (and whole packets of eight).
+const CHUNK: usize = 1024;
+
 /// A `(k, 3)` float32 array from rows.
 pub fn rows3<'py>(py: Python<'py>, rows: Vec<[f32; 3]>) -> Bound<'py, PyArray2<f32>> {
     let k = rows.len();
-    let flat: Vec<f32> = rows.into_iter().flatten().collect();
-    Array2::from_shape_vec((k, 3), flat)
+    // The same memory, seen as 3k values: no copy.
+    Array2::from_shape_vec((k, 3), rows.into_flattened())
         .expect("3 values per row")
         .into_pyarray(py)
 }
@@ -131,16 +166,6 @@ impl HitColumns {
         self.normal.push(unit_normal(mesh, hit.prim));
     }
 
-    /// A miss: `t` inf, `triangle` -1, the rest NaN.
-    pub fn push_miss(&mut self) {
-        self.t.push(f32::INFINITY);
-        self.triangle.push(-1);
-        self.u.push(f32::NAN);
-        self.v.push(f32::NAN);
-        self.point.push([f32::NAN; 3]);
-        self.normal.push([f32::NAN; 3]);
-    }
-
     /// The columns as a dict of NumPy arrays (no copies).
     pub fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         let out = PyDict::new(py);
@@ -165,16 +190,49 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
         .to_array()
 }
 
-/// The closest hit of every ray, as columns.
-pub fn closest(mesh: &MeshAccel, rays: &[Ray]) -> HitColumns {
-    let hits = mesh.closest_batch(rays);
-    let mut c = HitColumns::with_capacity(rays.len());
-    for (ray, hit) in rays.iter().zip(&hits) {
-        match hit {
-            Some(h) => c.push_hit(mesh, ray, h),
-            None => c.push_miss(),
-        }
-    }
+/// The closest hit of every ray, as columns. Each chunk of rays is traced
+/// (the library's batch query, packets for camera rays) and spread into its
+/// part of the columns at once, in parallel, while its triangles are still
+/// in cache.
+pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
+    let n = views.len();
+    let mut c = HitColumns {
+        t: vec![f32::INFINITY; n],
+        triangle: vec![-1; n],
+        u: vec![f32::NAN; n],
+        v: vec![f32::NAN; n],
+        point: vec![[f32::NAN; 3]; n],
+        normal: vec![[f32::NAN; 3]; n],
+    };
+    (
+        c.t.par_chunks_mut(CHUNK),
+        c.triangle.par_chunks_mut(CHUNK),
+        c.u.par_chunks_mut(CHUNK),
+        c.v.par_chunks_mut(CHUNK),
+        c.point.par_chunks_mut(CHUNK),
+        c.normal.par_chunks_mut(CHUNK),
+    )
+        .into_par_iter()
+        .enumerate()
+        .for_each_init(
+            || (Vec::new(), Vec::new()),
+            |(rays, hits), (k, (t, triangle, u, v, point, normal))| {
+                views.chunk(k, rays);
+                hits.clear();
+                hits.resize(rays.len(), None);
+                mesh.closest_batch_into(rays, hits);
+                for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
+                    if let Some(h) = hit {
+                        t[i] = h.hit.t;
+                        triangle[i] = i64::from(h.prim);
+                        u[i] = h.hit.u;
+                        v[i] = h.hit.v;
+                        point[i] = ray.at(h.hit.t).to_array();
+                        normal[i] = unit_normal(mesh, h.prim);
+                    }
+                }
+            },
+        );
     c
 }
 

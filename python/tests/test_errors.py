@@ -96,3 +96,14 @@ def test_bad_maximum_distances_are_value_errors():
     mesh = arbor.Mesh(V, F)
     with pytest.raises(ValueError, match=r"max_distance: expected a number or an array of shape \(2,\)"):
         mesh.closest_points(np.zeros((2, 3)), max_distance=[1.0])
+
+
+def test_broken_gltf_is_an_os_error_naming_the_file(tmp_path):
+    broken = tmp_path / "broken.gltf"
+    broken.write_text('{"asset": {"version": "2.0"}, "meshes": [{"primitives": [{"attributes": {"POSITION": 4}}]}]}')
+    with pytest.raises(OSError, match=re.escape(f"{broken}: mesh 0: POSITION names an accessor that does not exist")):
+        arbor.load_mesh(broken)
+    empty = tmp_path / "empty.glb"
+    empty.write_bytes(b"")
+    with pytest.raises(OSError, match=re.escape(f"{empty}: the file is empty")):
+        arbor.load_mesh(empty)

@@ -165,3 +165,79 @@ def test_queries_release_the_gil(rng):
         done.wait(0.0001)
     worker.join()
     assert turns > 50
+
+
+def write_gltf(path, vertices, faces, nodes, roots):
+    """A glTF file with one mesh (float32 vertices, uint32 faces in a data:
+    URI buffer) placed by `nodes` (glTF node dicts, mesh 0), `roots` the
+    scene's nodes."""
+    import base64
+    import json
+
+    v = np.asarray(vertices, np.float32)
+    f = np.asarray(faces, np.uint32).ravel()
+    data = v.tobytes() + f.tobytes()
+    doc = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": roots}],
+        "nodes": nodes,
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": len(v), "type": "VEC3",
+             "min": v.min(axis=0).tolist(), "max": v.max(axis=0).tolist()},
+            {"bufferView": 1, "componentType": 5125, "count": len(f), "type": "SCALAR"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": v.nbytes},
+            {"buffer": 0, "byteOffset": v.nbytes, "byteLength": f.nbytes},
+        ],
+        "buffers": [{"byteLength": len(data),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(data).decode()}],
+    }
+    path.write_text(json.dumps(doc))
+
+
+def test_gltf_meshes_are_placed_and_numbered_as_arbor_trace_numbers_them(rng, tmp_path):
+    """Node transforms applied, nodes depth first (a node's mesh before its
+    children), one copy per placement; the answers are arbor trace's on the
+    same file."""
+    vertices, faces = box()
+    nodes = [
+        {"mesh": 0, "translation": [3, 0, 0], "children": [1]},
+        {"mesh": 0, "translation": [0, 3, 0], "scale": [0.5, 0.5, 0.5]},
+        {"mesh": 0, "matrix": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -3, 0, 1]},
+    ]
+    path = tmp_path / "boxes.gltf"
+    write_gltf(path, vertices, faces, nodes, roots=[2, 0])
+    mesh = arbor.load_mesh(path)
+    v = vertices.astype(np.float32)
+    want = np.concatenate([v + [0, -3, 0], v + [3, 0, 0], 0.5 * v + [3, 3, 0]]).astype(np.float32)
+    np.testing.assert_array_equal(mesh.vertices, want)
+    np.testing.assert_array_equal(mesh.faces, np.concatenate([faces, faces + 8, faces + 16]))
+    # From far away towards points around the three boxes.
+    o32 = (20 * rng.normal(size=(3000, 3))).astype(np.float32)
+    d32 = (rng.uniform([-1, -4, -1], [4, 4, 1], (3000, 3)) - o32).astype(np.float32)
+    hits = mesh.intersect(o32, d32)
+    t, tri, u, v = trace_cli(tmp_path, path, o32, d32, 0.0, np.inf)
+    assert len(np.unique(tri[tri >= 0] // 12)) == 3  # every placement is hit
+    np.testing.assert_array_equal(hits["triangle"], tri)
+    np.testing.assert_array_equal(hits["t"], t)
+    # The same file as GLB: the same mesh.
+    import json
+    import struct
+
+    text = json.loads(path.read_text())
+    uri = text["buffers"][0].pop("uri")
+    import base64
+
+    blob = base64.b64decode(uri.split(",", 1)[1])
+    chunk = json.dumps(text).encode()
+    chunk += b" " * (-len(chunk) % 4)
+    blob += b"\0" * (-len(blob) % 4)
+    glb = struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(chunk) + 8 + len(blob))
+    glb += struct.pack("<I4s", len(chunk), b"JSON") + chunk + struct.pack("<I4s", len(blob), b"BIN\0") + blob
+    (tmp_path / "boxes.glb").write_bytes(glb)
+    binary = arbor.load_mesh(tmp_path / "boxes.glb")
+    np.testing.assert_array_equal(binary.vertices, mesh.vertices)
+    np.testing.assert_array_equal(binary.faces, mesh.faces)

@@ -60,9 +60,7 @@ impl Overrides {
 /// The image becomes `w` x `h` pixels, the horizontal extent of the view
 /// kept and the vertical one fitted (square pixels).
 pub(crate) fn resize(scene: &mut Scene, w: u32, h: u32) {
-    scene.width = w;
-    scene.height = h;
-    scene.camera.view_height = scene.camera.view_width * h as f64 / w as f64;
+    scene.resize(w, h);
 }
 
 /// Sets one `--define` value, with the checks the scene reader makes.

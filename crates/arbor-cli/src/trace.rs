@@ -49,7 +49,9 @@ impl Query {
 #[derive(Args, Debug)]
 pub struct TraceArgs {
     /// Triangle mesh: a Cornell `.msh`, a Wavefront `.obj` (polygons split
-    /// as fans), a `.ply` or an `.stl`; triangles numbered in file order.
+    /// as fans), a `.ply` or an `.stl`, triangles numbered in file order; or
+    /// a `.gltf`/`.glb`, every placed mesh with its node transforms, nodes
+    /// depth first (docs/queries.md).
     #[arg(long, value_name = "FILE")]
     pub mesh: PathBuf,
     /// Rays: 32-byte little-endian records (origin, tnear, direction, tfar).

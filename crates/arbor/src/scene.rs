@@ -51,4 +51,12 @@ impl Scene {
     pub fn samples_per_side_for(n: u32) -> u32 {
         ((n as f64).sqrt().round() as u32).max(1)
     }
+
+    /// The image becomes `width` x `height` pixels, the horizontal extent
+    /// of the view kept and the vertical one fitted (square pixels).
+    pub fn resize(&mut self, width: u32, height: u32) {
+        self.width = width;
+        self.height = height;
+        self.camera.view_height = self.camera.view_width * height as f64 / width as f64;
+    }
 }

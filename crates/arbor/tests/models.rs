@@ -1059,3 +1059,44 @@ fn mtl_ignored_features_are_named_once() {
     let m = load_model(&obj).unwrap();
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
 }
+
+/// glTF as a mesh for ray casting: every placement of every mesh, node
+/// transforms applied, in tree order (a node's mesh before its children);
+/// the engine's triangles are all there, as placed.
+#[test]
+fn gltf_ray_meshes_are_placed_in_tree_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("placed.gltf");
+    // Scene roots 3 then 0; node 0 (translated by x + 1) places the mesh
+    // itself, then its children 1 (scaled by 2) and 2 (z + 5).
+    let json = gltf_json(
+        r#"[{"children":[1,2],"translation":[1,0,0],"mesh":0},{"mesh":0,"scale":[2,2,2]},{"mesh":0,"matrix":[1,0,0,0,0,1,0,0,0,0,1,0,0,0,5,1]},{"mesh":0,"translation":[0,-3,0]}]"#,
+        "[3,0]",
+        "",
+    );
+    std::fs::write(&path, json).unwrap();
+    let mesh = arbor::load::load_ray_mesh(&path).unwrap_or_else(|e| panic!("{e}"));
+    let tris: Vec<[u32; 3]> = (0..4).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+    assert_eq!(mesh.triangles, tris);
+    // Each placement's corner (1, 0, 0) of the triangle (0,0,0) (1,0,0) (0,1,0).
+    let corners: Vec<[f32; 3]> = (0..4)
+        .map(|k| mesh.positions[3 * k + 1].to_array())
+        .collect();
+    assert_eq!(
+        corners,
+        [[1., -3., 0.], [2., 0., 0.], [3., 0., 0.], [2., 0., 5.]]
+    );
+    let Some(models) = models() else { return };
+    let engine = models.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
+    let mesh = arbor::load::load_ray_mesh(&engine).unwrap_or_else(|e| panic!("{e}"));
+    let model = load_model(&engine).unwrap();
+    assert_eq!(mesh.triangles.len() as u64, model.stats.instanced_triangles);
+    // The same bounds as the model as placed.
+    let (lo, hi) = frame::bounds(&model.surfaces).unwrap();
+    let (mut mlo, mut mhi) = (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY);
+    for p in &mesh.positions {
+        (mlo, mhi) = (mlo.min(*p), mhi.max(*p));
+    }
+    assert!((mlo.as_dvec3() - lo).abs().max_element() < 1e-3 * (hi - lo).max_element());
+    assert!((mhi.as_dvec3() - hi).abs().max_element() < 1e-3 * (hi - lo).max_element());
+}

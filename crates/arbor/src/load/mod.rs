@@ -3,7 +3,8 @@
 //!
 //! * [`load_ray_mesh`]: a triangle mesh for batch ray casting (`arbor
 //!   trace`): `.msh`, or OBJ under the fan rule ([`ObjRule::Fan`]), numbered
-//!   in file order as the ray/hit interface and Embree number them;
+//!   in file order as the ray/hit interface and Embree number them, PLY,
+//!   STL, and glTF as one mesh with its node transforms applied ([`placed`]);
 //! * [`load_mesh`]: one mesh of any mesh format (`.msh`, OBJ under a given
 //!   rule, PLY, STL), for a scene's `Mesh` surface and `arbor bench`;
 //! * [`load_model`] and [`load_model_scene`]: a model to render (OBJ through
@@ -33,6 +34,7 @@ pub mod msh;
 mod mtl;
 pub mod obj_exact;
 pub mod obj_import;
+pub mod placed;
 pub mod ply;
 pub mod stl;
 mod text;
@@ -79,16 +81,22 @@ pub fn load_mesh(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
 /// Reads a mesh file for batch ray casting: `.msh` is the Cornell format,
 /// `.obj` is read with [`ObjRule::Fan`] so that triangles are numbered as the
 /// ray/hit file interface (and Embree's `embree_trace`) number them, `.ply`
-/// and `.stl` as stored (faces in file order, PLY polygons as fans).
+/// and `.stl` as stored (faces in file order, PLY polygons as fans, no
+/// turning of STL's z up). `.gltf` and `.glb` become one mesh of every
+/// triangle primitive with its nodes' transforms applied, in the order of
+/// [`placed`] (the default scene's nodes depth first, a node's mesh before
+/// its children, primitives and triangles in file order, strips and fans
+/// as the renderer assembles them; points and lines have no triangles).
 pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
     match Format::from_path(path)? {
         Format::Msh | Format::Obj | Format::Ply | Format::Stl => {
             Ok(load_mesh(path, ObjRule::Fan)?.mesh)
         }
+        Format::Gltf | Format::Glb => placed::placed_mesh(&gltf::load(path)?.surfaces, path),
         other => Err(LoadError::file(
             path,
             format!(
-                "a .{} file is not a mesh for ray casting; expected a .msh, .obj, .ply or .stl file",
+                "a .{} file is not a mesh for ray casting; expected a .msh, .obj, .ply, .stl, .gltf or .glb file",
                 other.extension()
             ),
         )),
@@ -186,9 +194,12 @@ mod tests {
         )
         .unwrap();
         assert_eq!(load_ray_mesh(&ply).unwrap().triangles, vec![[0, 1, 2]]);
-        let other = dir.path().join("t.gltf");
-        std::fs::write(&other, "{}").unwrap();
+        let other = dir.path().join("t.xml");
+        std::fs::write(&other, "<scene/>").unwrap();
         let e = load_ray_mesh(&other).unwrap_err();
-        assert!(e.message.contains(".msh, .obj, .ply or .stl"), "{e}");
+        assert!(
+            e.message.contains(".msh, .obj, .ply, .stl, .gltf or .glb"),
+            "{e}"
+        );
     }
 }

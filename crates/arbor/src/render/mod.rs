@@ -13,8 +13,10 @@ use crate::scene::{Scene, Variant};
 use crate::stats::{NoStats, RayStats};
 use crate::tracer::Tracer;
 
+mod file;
 mod shade;
 
+pub use file::{render_file, RenderFileError, RenderOptions, RenderedFile};
 pub use shade::Integrator;
 
 /// Side of the square tiles the image is cut into for parallel rendering.
