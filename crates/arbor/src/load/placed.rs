@@ -79,6 +79,7 @@ mod tests {
             }),
             shader: super::super::default_shader(),
             two_sided: true,
+            soft_terminator: false,
         })
     }
 

@@ -25,13 +25,13 @@ use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
 use crate::texture::{CubeMap, Texture, Wrap};
 
 /// The version of the scene encoding [`scene_hash`] hashes.
-pub const ENCODING_VERSION: u32 = 2;
+pub const ENCODING_VERSION: u32 = 3;
 
 /// SHA-256 of everything that decides a render's pixels: the encoding
 /// version, the version of this crate and the loaded [`Scene`], in the
 /// encoding below.
 ///
-/// # The encoding (version 2)
+/// # The encoding (version 3)
 ///
 /// Integers are little-endian; an `f64` or `f32` is its IEEE bits
 /// (`to_bits`, so `-0.0` and `0.0` differ); a vector is its components in
@@ -47,12 +47,14 @@ pub const ENCODING_VERSION: u32 = 2;
 ///    (`Perspective2010`, `Perspective2015`, `Parallel2015`), view point,
 ///    view direction, up, projection normal, projection distance, view
 ///    width, view height; image width, height and samples per side (`u32`).
-/// 3. Lights (list of `Point { position, intensity }` or
-///    `Directional { direction, intensity }`), background, exposure, cube
+/// 3. Lights (list of `Point { position, intensity }`,
+///    `Directional { direction, intensity }` or `Spot { position,
+///    direction, intensity, cos_inner, cos_outer }`), background, exposure, cube
 ///    map (optional: block and width as `u64`, scale, texels as a list).
 /// 4. Surfaces (list), each one of `Sphere { center, radius, shader }`,
 ///    `Box { min, max, shader }`, `Cylinder { center, radius, height,
-///    shader }`, `Mesh { two_sided (byte), shader, mesh }`,
+///    shader }`, `Mesh { two_sided (byte), soft_terminator (byte), shader,
+///    mesh }`,
 ///    `Group { transform, children (list) }`, `Instance { surface }`.
 ///
 /// A shader is one of `Lambertian { diffuse, texture }`, `Phong { diffuse,
@@ -60,13 +62,14 @@ pub const ENCODING_VERSION: u32 = 2;
 /// fresnel (Schlick, Exact) }`, `Glass { refractive_index }`,
 /// `Emissive { emission, texture, surface }`, `RgbNormals`,
 /// `CookTorrance { diffuse, specular, roughness, refractive_index,
-/// texture }` (textures optional).
+/// texture }`, `Reflective { reflectance, substrate }` (textures optional).
 ///
 /// Three things stand in the encoding as the 32-byte SHA-256 of their own
 /// encoding, computed once per shared object: a mesh (positions `f32`;
 /// optional normals, texture coordinates and colours; triangles as three
 /// `u32` each), a texture (wrap `Clamp`/`Repeat`, width and height `u32`,
-/// texels as a list) and an instanced surface. So hashing costs the size of
+/// texels as a list, the optional texture-coordinate transform as its six
+/// numbers row by row) and an instanced surface. So hashing costs the size of
 /// the scene, not of its expansion, and the hash does not depend on which
 /// equal objects the loader happened to share.
 ///
@@ -265,19 +268,38 @@ impl<'d> Encoder<'d> {
     }
 
     fn light(&mut self, light: &Light) {
-        let (tag, where_, intensity) = match light {
+        match light {
             Light::Point {
                 position,
                 intensity,
-            } => (0, position, intensity),
+            } => {
+                self.u8(0);
+                self.dvec3(*position);
+                self.dvec3(*intensity);
+            }
             Light::Directional {
                 direction,
                 intensity,
-            } => (1, direction, intensity),
-        };
-        self.u8(tag);
-        self.dvec3(*where_);
-        self.dvec3(*intensity);
+            } => {
+                self.u8(1);
+                self.dvec3(*direction);
+                self.dvec3(*intensity);
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                self.u8(2);
+                for v in [position, direction, intensity] {
+                    self.dvec3(*v);
+                }
+                self.f64(*cos_inner);
+                self.f64(*cos_outer);
+            }
+        }
     }
 
     fn cubemap(&mut self, c: &CubeMap) {
@@ -327,9 +349,11 @@ impl<'d> Encoder<'d> {
                 data,
                 shader,
                 two_sided,
+                soft_terminator,
             }) => {
                 self.u8(3);
                 self.u8(*two_sided as u8);
+                self.u8(*soft_terminator as u8);
                 self.shader(shader);
                 self.mesh(data);
             }
@@ -409,6 +433,14 @@ impl<'d> Encoder<'d> {
                 self.f64(*refractive_index);
                 self.texture(texture);
             }
+            Shader::Reflective {
+                reflectance,
+                substrate,
+            } => {
+                self.u8(7);
+                self.dvec3(*reflectance);
+                self.shader(substrate);
+            }
         }
     }
 
@@ -423,6 +455,7 @@ impl<'d> Encoder<'d> {
                         width,
                         height,
                         texels,
+                        transform,
                     } = t;
                     e.u8(match wrap {
                         Wrap::Clamp => 0,
@@ -431,6 +464,11 @@ impl<'d> Encoder<'d> {
                     e.u32(*width);
                     e.u32(*height);
                     e.list(texels, |e, t| e.dvec3(*t));
+                    e.option(transform.as_ref(), |e, m| {
+                        for x in m.rows.iter().flatten() {
+                            e.f64(*x);
+                        }
+                    });
                 },
             )
         });

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::hash_map::HashSet;
+use crate::texture::UvTransform;
 
 fn texture() -> Arc<Texture> {
     Arc::new(Texture {
@@ -9,6 +10,9 @@ fn texture() -> Arc<Texture> {
         width: 2,
         height: 1,
         texels: vec![DVec3::splat(0.5), DVec3::new(0.1, 0.2, 0.3)],
+        transform: Some(UvTransform {
+            rows: [[1.0, 0.0, 0.25], [0.0, 2.0, 0.0]],
+        }),
     })
 }
 
@@ -68,6 +72,13 @@ fn fixed_scene() -> Scene {
                 direction: DVec3::Y,
                 intensity: DVec3::splat(0.5),
             },
+            Light::Spot {
+                position: DVec3::new(0.0, 4.0, 0.0),
+                direction: DVec3::NEG_Y,
+                intensity: DVec3::splat(7.0),
+                cos_inner: 0.9,
+                cos_outer: 0.8,
+            },
         ],
         surfaces: vec![
             sphere(1.0, lambert.clone()),
@@ -99,6 +110,7 @@ fn fixed_scene() -> Scene {
                     surface: Arc::new(Shader::RgbNormals),
                 }),
                 two_sided: true,
+                soft_terminator: true,
             }),
             Surface::Group(Group {
                 transform: DMat4::from_translation(DVec3::new(0.0, 0.0, -2.0)),
@@ -117,6 +129,13 @@ fn fixed_scene() -> Scene {
                     ),
                 ],
             }),
+            sphere(
+                0.75,
+                Shader::Reflective {
+                    reflectance: DVec3::new(0.9, 0.6, 0.3),
+                    substrate: Arc::new(lambert.clone()),
+                },
+            ),
         ],
         background: DVec3::new(0.1, 0.2, 0.3),
         exposure: 1.25,
@@ -139,7 +158,7 @@ fn hash(scene: &Scene) -> String {
 fn the_hash_of_a_fixed_scene_is_pinned() {
     assert_eq!(
         hash(&fixed_scene()),
-        "a559c67f0961461e106982dd0ae5ecdf64f015803aec311f2ff2c779d812206f"
+        "cdaf328cd25b1ce2af5f396bc749e63ee48f08f3522d183969e0111fb61aa430"
     );
 }
 
@@ -165,7 +184,7 @@ fn the_encoding_is_the_documented_one() {
         cubemap: None,
     };
     let mut b: Vec<u8> = b"arbor-scene".to_vec();
-    b.extend(2u32.to_le_bytes());
+    b.extend(3u32.to_le_bytes());
     b.extend(3u64.to_le_bytes());
     b.extend(b"9.9");
     b.push(0); // Cornell2010
@@ -242,6 +261,21 @@ fn lambert_texture(s: &mut Scene) -> &mut Texture {
     Arc::make_mut(t)
 }
 
+/// The fields of the fixed scene's spot light.
+fn spot(s: &mut Scene) -> (&mut DVec3, &mut DVec3, &mut DVec3, &mut f64, &mut f64) {
+    let Light::Spot {
+        position,
+        direction,
+        intensity,
+        cos_inner,
+        cos_outer,
+    } = &mut s.lights[2]
+    else {
+        panic!()
+    };
+    (position, direction, intensity, cos_inner, cos_outer)
+}
+
 type Change = (&'static str, fn(&mut Scene));
 
 /// One change per field the picture depends on.
@@ -300,6 +334,11 @@ fn changes() -> Vec<Change> {
             };
             intensity.x += 1.0;
         }),
+        ("spot position", |s| spot(s).0.z += 1.0),
+        ("spot direction", |s| spot(s).1.x += 0.1),
+        ("spot intensity", |s| spot(s).2.y += 1.0),
+        ("spot inner cone", |s| *spot(s).3 = 0.95),
+        ("spot outer cone", |s| *spot(s).4 = 0.7),
         ("background", |s| s.background.y += 0.5),
         ("exposure", |s| s.exposure = 1.5),
         ("no cube map", |s| s.cubemap = None),
@@ -353,6 +392,12 @@ fn changes() -> Vec<Change> {
             };
             m.two_sided = false;
         }),
+        ("mesh hard terminator", |s| {
+            let Surface::Mesh(m) = top(s, 3) else {
+                panic!()
+            };
+            m.soft_terminator = false;
+        }),
         ("mesh position", |s| mesh_of(s).positions[1].y = 0.5),
         ("mesh normals", |s| mesh_of(s).normals = None),
         ("mesh normal", |s| {
@@ -401,6 +446,24 @@ fn changes() -> Vec<Change> {
             (t.width, t.height) = (1, 2);
         }),
         ("texel", |s| lambert_texture(s).texels[1].x = 0.0),
+        ("texture transform", |s| {
+            lambert_texture(s).transform.as_mut().unwrap().rows[1][2] = 0.5
+        }),
+        ("no texture transform", |s| {
+            lambert_texture(s).transform = None
+        }),
+        ("reflective reflectance", |s| {
+            let Shader::Reflective { reflectance, .. } = shader(top(s, 5)) else {
+                panic!()
+            };
+            reflectance.x = 0.5;
+        }),
+        ("reflective substrate", |s| {
+            let Shader::Reflective { substrate, .. } = shader(top(s, 5)) else {
+                panic!()
+            };
+            *substrate = Arc::new(Shader::RgbNormals);
+        }),
         ("phong diffuse", |s| {
             let Shader::Phong { diffuse, .. } = shader(top(s, 1)) else {
                 panic!()
@@ -516,6 +579,7 @@ fn texture_of_size(n: u32) -> Arc<Texture> {
         width: n,
         height: n,
         texels: vec![DVec3::ZERO; (n * n) as usize],
+        transform: None,
     })
 }
 
