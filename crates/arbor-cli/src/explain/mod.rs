@@ -47,7 +47,8 @@ pub struct ExplainArgs {
     pub accel: Vec<AccelKind>,
     /// With --json: the pixel (column, row; 0,0 at the top left) whose first
     /// camera ray is traced.
-    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, requires = "json")]
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, requires = "json",
+          allow_hyphen_values = true)]
     pub ray: Option<(u32, u32)>,
     /// With --ray: write that ray's traversal of each structure to FILE as
     /// JSON (docs/explain-data.md).
