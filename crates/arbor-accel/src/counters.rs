@@ -103,7 +103,9 @@ pub struct Visit {
 }
 
 /// Records a ray's traversal in order: every visit and skipped box, every
-/// primitive tested, and the counts [`RayCounts`] would give.
+/// primitive tested, and the counts [`RayCounts`] would give, for every
+/// [`crate::Accel`] structure. (`MeshAccel`'s triangle-specialised queries
+/// count but do not record their triangle tests.)
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Recorder {
     /// What [`RayCounts`] counts; `counts.nodes` equals the entered visits.
