@@ -147,10 +147,13 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
             accels.push(k);
         }
     }
-    let views: Vec<View> = accels
+    let mut views: Vec<View> = accels
         .iter()
         .map(|&k| View::new(k, crate::render::tracer(flat.clone(), k, args.bvol)))
         .collect();
+    // The page's node numbers depend on the picks; `--ray` uses the same.
+    let pick_pixels = picks::pick_pixels(&scene);
+    picks::name_visited_nodes(&scene, &mut views, &pick_pixels.1);
     let mut inner = InnerLayouts::default();
     let mut staged = Vec::new();
     if let (Some(path), Some(pixel)) = (&args.json, args.ray) {
@@ -161,7 +164,7 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
         })?);
     }
     if let Some(path) = &page {
-        let data = document(args, &scene, &flat, &views, &mut inner)?;
+        let data = document(args, &scene, &flat, &views, &mut inner, pick_pixels)?;
         let html = page::page_html(&serde_json::to_string(&data)?);
         staged.push(crate::output::stage(path, |f| {
             std::io::Write::write_all(f, html.as_bytes())
@@ -183,6 +186,7 @@ fn document(
     flat: &arbor::flatten::Flattened,
     views: &[View],
     inner: &mut InnerLayouts,
+    pick_pixels: (u32, Vec<(u32, u32)>),
 ) -> anyhow::Result<Value> {
     let (w, h) = (scene.width, scene.height);
     let pixels = u64::from(w) * u64::from(h);
@@ -195,17 +199,13 @@ fn document(
         .iter()
         .map(|v| structures::heatmap_json(scene, v, &progress))
         .collect();
-    let picks = picks::picks(scene, views, inner, &mut notes);
+    let picks = picks::picks(scene, views, inner, pick_pixels, &mut notes);
     bar.finish_and_clear();
 
     let structures: Vec<Value> = views
         .iter()
         .zip(heatmaps)
-        .enumerate()
-        .map(|(i, (v, heat))| {
-            let named = picks::named_nodes(&picks.rays, i);
-            structures::structure_json(v, &named, heat, &mut notes)
-        })
+        .map(|(v, heat)| structures::structure_json(v, heat, &mut notes))
         .collect();
     let graph = graph::scene_graph(scene, flat, &mut notes);
     let prims = primitives::primitives_json(flat, &mut notes);

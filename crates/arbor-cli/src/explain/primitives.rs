@@ -8,7 +8,7 @@ use glam::{DAffine3, DVec3};
 use serde_json::{json, Value};
 
 /// Most triangles drawn; above it every k-th is kept.
-const MAX_TRIANGLES: usize = 20_000;
+const MAX_TRIANGLES: usize = 12_000;
 
 /// One drawable piece.
 enum Piece {

@@ -1,10 +1,11 @@
 //! The `structures` section: each structure's nodes (or cells) for
 //! drawing, its statistics and its cost heatmap.
 //!
-//! A tree's nodes are numbered for the page in breadth-first order, so
-//! that the nodes down to any depth are a prefix of the list: the page's
-//! list stops at a depth that keeps it small (`left_out` counts the rest),
-//! with `null` in place of a deeper node unless a pick visits it.
+//! A tree's nodes are numbered for the page breadth-first from the root
+//! down to a depth that keeps the page small, then the deeper nodes that
+//! picks visit (breadth-first too), then the rest, which the page does not
+//! get: its `nodes` list is exactly the drawn ones, `left_out` counts the
+//! others.
 
 use std::collections::HashSet;
 
@@ -22,7 +23,7 @@ use super::traversal::{box_json, first_camera_ray};
 const MAX_DRAWN_NODES: usize = 2000;
 
 /// Most occupied grid cells listed.
-const MAX_LISTED_CELLS: usize = 200_000;
+const MAX_LISTED_CELLS: usize = 50_000;
 
 /// One structure built over the scene, with its layout and page numbering.
 pub struct View {
@@ -32,31 +33,84 @@ pub struct View {
     pub tracer: Tracer,
     /// The top level's shape.
     pub layout: Layout,
-    /// Page number of each layout index (trees: breadth-first order).
+    /// Layout indices breadth-first.
+    breadth_first: Vec<u32>,
+    /// Deepest level drawn whole.
+    depth_cut: u32,
+    /// Page number of each layout index.
     page_number: Vec<u32>,
     /// Layout index of each page number.
     layout_index: Vec<u32>,
+    /// How many page numbers are drawn (a prefix).
+    drawn: usize,
 }
 
 impl View {
-    /// The view of `tracer`, built with `kind`.
+    /// The view of `tracer`, built with `kind`, numbered with no node
+    /// named by picks yet ([`View::renumber`]).
     pub fn new(kind: AccelKind, tracer: Tracer) -> View {
         let layout = tracer.accel().layout();
-        let layout_index = match &layout {
+        let breadth_first = match &layout {
             Layout::Tree { nodes, .. } => breadth_first(nodes),
             _ => Vec::new(),
         };
-        let mut page_number = vec![0; layout_index.len()];
-        for (page, &index) in layout_index.iter().enumerate() {
-            page_number[index as usize] = page as u32;
+        // Whole levels while they fit.
+        let mut depth_cut = 0;
+        if let Layout::Tree { nodes, .. } = &layout {
+            for (count, &i) in breadth_first.iter().enumerate() {
+                let d = nodes[i as usize].depth;
+                if d > depth_cut {
+                    if count >= MAX_DRAWN_NODES {
+                        break;
+                    }
+                    depth_cut = d;
+                }
+            }
         }
-        View {
+        let mut view = View {
             kind,
             tracer,
             layout,
-            page_number,
-            layout_index,
+            breadth_first,
+            depth_cut,
+            page_number: Vec::new(),
+            layout_index: Vec::new(),
+            drawn: 0,
+        };
+        view.renumber(&HashSet::new());
+        view
+    }
+
+    /// Numbers the nodes: those down to the depth cut, then `named`
+    /// (layout indices that picks visit), then the rest.
+    pub fn renumber(&mut self, named: &HashSet<u32>) {
+        let Layout::Tree { nodes, .. } = &self.layout else {
+            return;
+        };
+        let depth = |i: u32| nodes[i as usize].depth;
+        let order = &self.breadth_first;
+        let mut index: Vec<u32> = order
+            .iter()
+            .copied()
+            .filter(|&i| depth(i) <= self.depth_cut)
+            .collect();
+        index.extend(
+            order
+                .iter()
+                .filter(|&&i| depth(i) > self.depth_cut && named.contains(&i)),
+        );
+        self.drawn = index.len();
+        index.extend(
+            order
+                .iter()
+                .filter(|&&i| depth(i) > self.depth_cut && !named.contains(&i)),
+        );
+        let mut number = vec![0; index.len()];
+        for (page, &i) in index.iter().enumerate() {
+            number[i as usize] = page as u32;
         }
+        self.page_number = number;
+        self.layout_index = index;
     }
 
     /// The page's number of layout index `index` (a grid cell keeps its
@@ -93,14 +147,8 @@ fn family(kind: AccelKind) -> &'static str {
     }
 }
 
-/// The structure object of `view`; `named` are the page numbers of nodes
-/// that picks visit (always included); `heatmap` is its heatmap object.
-pub fn structure_json(
-    view: &View,
-    named: &HashSet<u32>,
-    heatmap: Value,
-    notes: &mut Vec<String>,
-) -> Value {
+/// The structure object of `view`; `heatmap` is its heatmap object.
+pub fn structure_json(view: &View, heatmap: Value, notes: &mut Vec<String>) -> Value {
     let s = view.tracer.accel().stats();
     let mut o = json!({
         "accel": view.kind.name(),
@@ -116,40 +164,21 @@ pub fn structure_json(
             o["left_out"] = json!(0);
         }
         Layout::Tree { nodes, .. } => {
-            // Whole levels while they fit.
-            let mut depth_cut = 0;
-            let mut count = 0;
-            for &i in &view.layout_index {
-                let d = nodes[i as usize].depth;
-                if d > depth_cut {
-                    if count >= MAX_DRAWN_NODES {
-                        break;
-                    }
-                    depth_cut = d;
-                }
-                count += 1;
-            }
-            let drawn = |page: usize| {
-                let n = &nodes[view.layout_index[page] as usize];
-                n.depth <= depth_cut || named.contains(&(page as u32))
-            };
-            let last = (0..view.layout_index.len()).rev().find(|&p| drawn(p));
-            let list: Vec<Value> = (0..last.map_or(0, |l| l + 1))
-                .map(|page| match drawn(page) {
-                    true => node_json(view, &nodes[view.layout_index[page] as usize]),
-                    false => Value::Null,
-                })
+            let list: Vec<Value> = view.layout_index[..view.drawn]
+                .iter()
+                .map(|&i| node_json(view, &nodes[i as usize]))
                 .collect();
-            let kept = list.iter().filter(|v| !v.is_null()).count();
-            let left_out = nodes.len() - kept;
+            let left_out = nodes.len() - list.len();
             if left_out > 0 {
                 notes.push(format!(
-                    "{name}: {kept} of {} nodes drawn (down to depth {depth_cut}, and every node a pick visits)",
-                    nodes.len()
+                    "{name}: {} of {} nodes drawn (down to depth {}, and every node a pick visits)",
+                    list.len(),
+                    nodes.len(),
+                    view.depth_cut
                 ));
             }
             o["nodes"] = json!(list);
-            o["depth_drawn"] = json!(depth_cut);
+            o["depth_drawn"] = json!(view.depth_cut);
             o["left_out"] = json!(left_out);
         }
         Layout::Grid(g) => {

@@ -98,6 +98,19 @@ pub fn structure_traversal(
     })
 }
 
+/// The layout indices of the top-level nodes the ray `(o, d)` from `tmin`
+/// visits or skips in `view`.
+pub fn top_level_nodes(view: &View, (o, d, tmin): (DVec3, DVec3, f64)) -> Vec<u32> {
+    let mut rec = TraversalRecord::default();
+    view.tracer
+        .closest_counted(o, d, tmin, f64::INFINITY, &mut rec);
+    rec.top
+        .visits
+        .iter()
+        .map(|v| view.layout.index(v.node))
+        .collect()
+}
+
 /// The traversal of pixel `(x, y)`'s first camera ray through every view.
 pub fn pixel_traversal(
     scene: &Scene,
