@@ -4,8 +4,9 @@
 
 use crate::{Aabb, Vec3};
 
-/// One node of a tree, as drawn.
-#[derive(Clone, Debug, PartialEq)]
+/// One node of a tree, as drawn (by default: an empty box at the root's
+/// depth, no children, no primitives).
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct LayoutNode {
     /// The node's box (a k-d tree node: its region of space).
     pub bounds: Aabb,

@@ -165,14 +165,7 @@ impl WideBvh {
             .flat_map(|n| (0..WIDTH).filter(|&i| n.count[i] > 0).map(|i| n.child[i]))
             .collect();
         leaf_slots.sort_unstable();
-        let blank = LayoutNode {
-            bounds: Aabb::EMPTY,
-            depth: 0,
-            children: Vec::new(),
-            primitives: 0,
-            split: None,
-        };
-        let mut nodes = vec![blank; self.nodes.len() + leaf_slots.len()];
+        let mut nodes = vec![LayoutNode::default(); self.nodes.len() + leaf_slots.len()];
         if self.nodes.is_empty() {
             return Layout::Tree {
                 nodes,

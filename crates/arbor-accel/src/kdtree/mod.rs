@@ -137,14 +137,7 @@ impl KdTree {
     /// The nodes for drawing, numbered as traversal reports them; a node's
     /// box is its region of space (the tree's box cut by the splits above).
     pub fn layout(&self) -> Layout {
-        let blank = LayoutNode {
-            bounds: Aabb::EMPTY,
-            depth: 0,
-            children: Vec::new(),
-            primitives: 0,
-            split: None,
-        };
-        let mut nodes = vec![blank; self.nodes.len()];
+        let mut nodes = vec![LayoutNode::default(); self.nodes.len()];
         let mut todo = if self.nodes.is_empty() {
             vec![]
         } else {
