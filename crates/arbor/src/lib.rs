@@ -45,4 +45,5 @@ pub mod surface;
 pub mod terminator;
 pub mod texture;
 pub mod tracer;
+pub mod traversal;
 pub mod xml;
