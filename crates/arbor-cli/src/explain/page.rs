@@ -50,33 +50,18 @@ pub fn page_html(data_json: &str) -> String {
     page.push_str(STYLE);
     page.push_str("</style>\n</head>\n<body>\n");
     page.push_str(BODY);
-    push_script(
-        &mut page,
-        "id=\"arbor-data\" type=\"application/json\"",
-        &json_script_safe(data_json),
-    );
-    push_script(
-        &mut page,
-        "id=\"three-core-src\" type=\"text/plain\"",
-        THREE_CORE,
-    );
-    push_script(
-        &mut page,
-        "id=\"three-module-src\" type=\"text/plain\"",
-        &three_module,
-    );
-    push_script(
-        &mut page,
-        "id=\"three-orbit-src\" type=\"text/plain\"",
-        ORBIT_CONTROLS,
-    );
-    push_script(
-        &mut page,
-        "id=\"three-license\" type=\"text/plain\"",
-        THREE_LICENSE,
-    );
-    push_script(&mut page, "", LOADER);
-    push_script(&mut page, "type=\"module\"", APP);
+    let data = json_script_safe(data_json);
+    for (attrs, text) in [
+        (r#"id="arbor-data" type="application/json""#, data.as_str()),
+        (r#"id="three-core-src" type="text/plain""#, THREE_CORE),
+        (r#"id="three-module-src" type="text/plain""#, &three_module),
+        (r#"id="three-orbit-src" type="text/plain""#, ORBIT_CONTROLS),
+        (r#"id="three-license" type="text/plain""#, THREE_LICENSE),
+        ("", LOADER),
+        (r#"type="module""#, APP),
+    ] {
+        push_script(&mut page, attrs, text);
+    }
     page.push_str("</body>\n</html>\n");
     page
 }
