@@ -9,8 +9,8 @@ const data = JSON.parse($('arbor-data').textContent);
 
 // One colour per meaning, used by the 3D view, the lists and the legends.
 const COLOR = {
-  entered: '#1b9e77', skipped: '#d95f02', tested: '#7570b3', hit: '#e7298a', ray: '#ffd166',
-  level: '#8ecae6', done: '#5c6b80', prim: '#c9ccd3', bvol: '#f2c14e', plane: '#b39ddb', cell: '#4f6d8f',
+  entered: '#1b9e77', skipped: '#d95f02', tested: '#7570b3', hit: '#e7298a', ray: '#ffffff',
+  level: '#8ecae6', done: '#5c6b80', prim: '#c9ccd3', bvol: '#f2c14e', plane: '#8ecae6', cell: '#4f6d8f',
 };
 // Past this many boxes one level is drawn only in part (and the page says so).
 const MAX_BOXES = 20000;
@@ -751,8 +751,8 @@ for (const s of structures) $('structure').append(el('option', { value: s.accel,
 $('structure').addEventListener('change', () => selectTraversal($('structure').value, 'end'));
 $('depth').addEventListener('input', () => { state.depth = Number($('depth').value); drawAll(); });
 $('legend3d').append(
-  swatch(COLOR.prim, 'primitives'), swatch(COLOR.level, 'boxes at the chosen depth', true),
-  swatch(COLOR.done, 'leaves above it', true), swatch(COLOR.plane, 'k-d split planes'), swatch(COLOR.cell, 'occupied grid cells', true),
+  swatch(COLOR.prim, 'primitives'), swatch(COLOR.level, 'boxes (k-d: split planes) at the chosen depth', true),
+  swatch(COLOR.done, 'leaves above it', true), swatch(COLOR.cell, 'occupied grid cells', true),
   swatch(COLOR.entered, 'box entered', true), swatch(COLOR.skipped, 'box skipped', true), swatch(COLOR.tested, 'primitive tested'),
   swatch(COLOR.hit, 'the hit'), swatch(COLOR.ray, 'the ray', true), swatch(COLOR.bvol, 'bounding volumes', true));
 
