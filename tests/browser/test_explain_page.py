@@ -196,6 +196,15 @@ def test_depth_slider_changes_the_boxes_drawn(browser, pages, screenshots, name)
     assert view.get_attribute("data-depth") == str(target)
     assert view.get_attribute("data-structure-boxes") == str(min(expected, MAX_BOXES))
     assert target == 0 or canvas_print(d) != at_root
+    # Side by side: one labelled viewport per structure, same depth.
+    one_view = canvas_print(d)
+    d.find_element(By.ID, "side-by-side").click()
+    labels = [e.text.split(" ")[0] for e in d.find_elements(By.CSS_SELECTOR, "#view-labels .view-label")]
+    assert labels == [s["accel"] for s in page_data(path)["structures"]]
+    assert canvas_print(d) != one_view
+    d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-side-by-side.png"))
+    d.find_element(By.ID, "side-by-side").click()
+    assert len(d.find_elements(By.CSS_SELECTOR, "#view-labels .view-label")) == 1
     d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-{bvh['accel']}-depth{target}.png"))
 
 

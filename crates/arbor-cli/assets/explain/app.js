@@ -382,9 +382,7 @@ try {
   view.append(el('p', { class: 'message', text: 'The 3D view needs WebGL, which this browser does not offer: ' + err.message }));
 }
 const scene3 = new THREE.Scene();
-const groups = {
-  primitives: new THREE.Group(), structure: new THREE.Group(), traversal: new THREE.Group(), bvols: new THREE.Group(),
-};
+const groups = { primitives: new THREE.Group(), bvols: new THREE.Group() };
 for (const g of Object.values(groups)) scene3.add(g);
 scene3.add(new THREE.AmbientLight(0xffffff, 1.4));
 const sun = new THREE.DirectionalLight(0xffffff, 1.6);
@@ -526,22 +524,31 @@ function maxDepthOf(s) {
   return d;
 }
 
-// What the structure looks like at the chosen depth, with counts for the
-// tests and the info line.
-function drawStructure() {
-  dispose(groups.structure);
-  const s = structureByAccel(state.accel);
-  const drawn = { boxes: 0, planes: 0, cells: 0, of: 0 };
-  if (!s) return drawn;
-  const d = state.depth;
+// Each structure has its own structure and traversal groups, so the view
+// can show one of them or all side by side under the same camera.
+const perAccel = new Map();
+for (const s of structures) {
+  const entry = { structure: new THREE.Group(), traversal: new THREE.Group(), drawn: {}, counts: {} };
+  scene3.add(entry.structure, entry.traversal);
+  perAccel.set(s.accel, entry);
+}
+const sideBySide = () => $('side-by-side').checked && structures.length > 1;
+const shownAccels = () => (sideBySide() ? structures.map((s) => s.accel) : state.accel ? [state.accel] : []);
+
+// What structure `s` looks like at `depth` (a tree's own depth is capped at
+// its deepest node), with counts for the tests and the info line.
+function drawStructure(s, group, depth) {
+  dispose(group);
+  const drawn = { boxes: 0, planes: 0, cells: 0, of: 0, depth: Math.min(depth, maxDepthOf(s)) };
+  const d = drawn.depth;
   if (s.family === 'grid' && s.resolution) {
     const far = s.origin.map((o, k) => o + s.cell_size[k] * s.resolution[k]);
-    groups.structure.add(boxesLines([[s.origin, far]], COLOR.level));
+    group.add(boxesLines([[s.origin, far]], COLOR.level));
     const cells = (s.occupied || []).slice(0, MAX_BOXES).map((c) => cellBox(s, c));
     drawn.cells = cells.length;
     drawn.of = (s.occupied || []).length;
-    groups.structure.add(boxesLines(cells, COLOR.cell, 0.55));
-  } else if (s.nodes) {
+    group.add(boxesLines(cells, COLOR.cell, 0.55));
+  } else if (s.nodes && s.nodes.length) {
     const atLevel = [];
     const finished = [];
     const planes = [];
@@ -550,9 +557,8 @@ function drawStructure() {
       else if (n.depth < d && (!n.children || !n.children.length)) finished.push(n);
       if (s.family === 'kdtree' && n.axis !== null && n.axis !== undefined && n.depth <= d) planes.push(n);
     }
-    drawn.of = atLevel.length;
     if (s.family === 'kdtree') {
-      groups.structure.add(boxesLines([s.nodes[0].box], COLOR.level));
+      group.add(boxesLines([s.nodes[0].box], COLOR.level));
       const pos = [];
       const edge = [];
       for (const n of planes.slice(0, MAX_BOXES)) {
@@ -567,13 +573,14 @@ function drawStructure() {
       drawn.of = planes.length;
       const g = new THREE.BufferGeometry();
       g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
-      groups.structure.add(new THREE.Mesh(g, new THREE.MeshBasicMaterial({ color: COLOR.plane, side: THREE.DoubleSide, transparent: true, opacity: 0.22, depthWrite: false })));
-      groups.structure.add(lines(edge, COLOR.plane));
+      group.add(new THREE.Mesh(g, new THREE.MeshBasicMaterial({ color: COLOR.plane, side: THREE.DoubleSide, transparent: true, opacity: 0.22, depthWrite: false })));
+      group.add(lines(edge, COLOR.plane));
     } else {
       const shown = atLevel.slice(0, MAX_BOXES);
       drawn.boxes = shown.length;
-      groups.structure.add(boxesLines(shown.map((n) => n.box), COLOR.level));
-      groups.structure.add(boxesLines(finished.slice(0, MAX_BOXES).map((n) => n.box), COLOR.done, 0.6));
+      drawn.of = atLevel.length;
+      group.add(boxesLines(shown.map((n) => n.box), COLOR.level));
+      group.add(boxesLines(finished.slice(0, MAX_BOXES).map((n) => n.box), COLOR.done, 0.6));
     }
   }
   return drawn;
@@ -582,109 +589,53 @@ function drawStructure() {
 function updateDepthControl() {
   const s = structureByAccel(state.accel);
   const depthInput = $('depth');
-  const tree = s && s.family !== 'grid';
-  depthInput.disabled = !tree;
-  depthInput.max = maxDepthOf(s);
-  if (state.depth > Number(depthInput.max)) state.depth = Number(depthInput.max);
+  const deepest = Math.max(0, ...shownAccels().map((a) => maxDepthOf(structureByAccel(a))));
+  depthInput.disabled = !s || (s.family === 'grid' && !sideBySide());
+  depthInput.max = deepest;
+  if (state.depth > deepest) state.depth = deepest;
   depthInput.value = state.depth;
   drawAll();
 }
 
-let structureDrawn = {};
 function drawAll() {
-  structureDrawn = drawStructure();
+  for (const s of structures) perAccel.get(s.accel).drawn = drawStructure(s, perAccel.get(s.accel).structure, state.depth);
   const s = structureByAccel(state.accel);
   const info = $('structure-info');
   if (!s) { info.textContent = ''; render3d(); return; }
+  const drawn = perAccel.get(s.accel).drawn;
   const st = s.stats || {};
   const statText = `${s.accel}: ${st.nodes ?? '?'} nodes, ${st.leaves ?? '?'} leaves, depth ${st.max_depth ?? '?'}` +
     (st.memory_bytes ? `, ${(st.memory_bytes / 1024).toFixed(1)} KiB` : '') + '.';
   let shownText;
   if (s.family === 'grid') {
-    shownText = ` Drawn: the grid's bounds and its ${structureDrawn.cells} occupied cells` +
-      (structureDrawn.cells < structureDrawn.of ? ` (of ${structureDrawn.of})` : '') +
-      (s.resolution ? `; resolution ${s.resolution.join(' × ')}.` : '.');
-    $('depth-value').textContent = 'a grid has one level';
+    shownText = ` Drawn: the grid's bounds and its ${drawn.cells} occupied cells` +
+      (drawn.cells < drawn.of ? ` (of ${drawn.of})` : '') + (s.resolution ? `; resolution ${s.resolution.join(' × ')}.` : '.');
   } else if (s.family === 'kdtree') {
-    shownText = ` Drawn: the split planes of nodes down to depth ${state.depth} (${structureDrawn.planes} planes${structureDrawn.planes < structureDrawn.of ? ' of ' + structureDrawn.of : ''}).`;
-    $('depth-value').textContent = `${state.depth} of ${maxDepthOf(s)}`;
+    shownText = ` Drawn: the split planes of nodes down to depth ${drawn.depth} (${drawn.planes} planes${drawn.planes < drawn.of ? ' of ' + drawn.of : ''}).`;
   } else {
-    shownText = ` Drawn: the ${structureDrawn.boxes} boxes at depth ${state.depth}` +
-      (structureDrawn.boxes < structureDrawn.of ? ` (of ${structureDrawn.of})` : '') + ', and in grey the leaves finished above it.';
-    $('depth-value').textContent = `${state.depth} of ${maxDepthOf(s)}`;
+    shownText = ` Drawn: the ${drawn.boxes} boxes at depth ${drawn.depth}` +
+      (drawn.boxes < drawn.of ? ` (of ${drawn.of})` : '') + ', and in grey the leaves finished above it.';
   }
+  $('depth-value').textContent = s.family === 'grid' && !sideBySide() ? 'a grid has one level' : `${state.depth} of ${$('depth').max}`;
   if (s.left_out) shownText += ` Nodes below depth ${maxDepthOf(s)} are not in this page (${s.left_out} left out).`;
   info.textContent = statText + shownText;
-  view.dataset.depth = state.depth;
-  view.dataset.structureBoxes = structureDrawn.boxes;
-  view.dataset.structurePlanes = structureDrawn.planes;
-  view.dataset.structureCells = structureDrawn.cells;
+  view.dataset.depth = drawn.depth;
+  view.dataset.structureBoxes = drawn.boxes;
+  view.dataset.structurePlanes = drawn.planes;
+  view.dataset.structureCells = drawn.cells;
   drawTraversal();
 }
 
-// The chosen ray's visits up to the current step, its tests and its hit.
+// Every structure's traversal of the chosen ray: the walked structure up
+// to the current step, the others (side by side) to the end.
 function drawTraversal() {
-  dispose(groups.traversal);
-  const counts = { entered: 0, skipped: 0, tested: 0, hit: 0 };
-  const s = structureByAccel(state.accel);
-  const r = rayOf(state.accel);
-  if (r && s) {
-    const entered = [];
-    const skipped = [];
-    const testedTris = [];
-    const testedOther = [];
-    let current = null;
-    currentSteps.steps.slice(0, state.step).forEach((step, i) => {
-      if (step.kind === 'visit') {
-        const box = visitBox(s, step.node);
-        if (!box) return;
-        (step.entered ? entered : skipped).push(box);
-        if (i === state.step - 1) current = { box, entered: step.entered };
-      } else {
-        counts.tested++;
-        if (triangleIndex.has(step.prim)) testedTris.push(triangleIndex.get(step.prim));
-        else testedOther.push(step.prim);
-      }
-    });
-    counts.entered = entered.length;
-    counts.skipped = skipped.length;
-    groups.traversal.add(boxesLines(entered, COLOR.entered));
-    groups.traversal.add(boxesLines(skipped, COLOR.skipped));
-    if (current) {
-      const size = new THREE.Vector3(...current.box[1]).sub(new THREE.Vector3(...current.box[0]));
-      const mesh = new THREE.Mesh(new THREE.BoxGeometry(size.x || 1e-6, size.y || 1e-6, size.z || 1e-6),
-        new THREE.MeshBasicMaterial({ color: current.entered ? COLOR.entered : COLOR.skipped, transparent: true, opacity: 0.22, depthWrite: false }));
-      mesh.position.set(...current.box[0]).add(size.clone().multiplyScalar(0.5));
-      groups.traversal.add(mesh);
-    }
-    const done = state.step >= currentSteps.steps.length;
-    const hitPrim = done && r.hit ? r.hit.primitive : null;
-    addPrimitives(testedTris.filter((t) => hitPrim === null || t !== triangleIndex.get(hitPrim)), testedOther.filter((p) => p !== hitPrim), COLOR.tested);
-    if (hitPrim !== null) {
-      counts.hit = 1;
-      addPrimitives(triangleIndex.has(hitPrim) ? [triangleIndex.get(hitPrim)] : [], triangleIndex.has(hitPrim) ? [] : [hitPrim], COLOR.hit);
-    }
-    // The ray itself, to its hit (drawn once the walk has reached it) or
-    // out of the scene.
-    const o = new THREE.Vector3(...state.pick.ray.origin);
-    const dir = new THREE.Vector3(...state.pick.ray.direction);
-    const far = r.hit && done ? r.hit.t : o.distanceTo(bounds.getCenter(new THREE.Vector3())) + sceneSize;
-    const end = o.clone().add(dir.clone().multiplyScalar(far));
-    groups.traversal.add(lines([...o.toArray(), ...end.toArray()], COLOR.ray));
-    if (r.hit && done) {
-      const dot = new THREE.Mesh(new THREE.SphereGeometry(sceneSize / 150, 12, 8), new THREE.MeshBasicMaterial({ color: COLOR.hit }));
-      dot.position.copy(end);
-      groups.traversal.add(dot);
-    }
+  for (const s of structures) {
+    const entry = perAccel.get(s.accel);
+    const walked = s.accel === state.accel;
+    const steps = walked ? currentSteps : stepsOf(s.accel);
+    entry.counts = drawTraversalOf(s, entry, steps, walked ? state.step : steps.steps.length);
   }
-  // Under a walk in progress the structure's own boxes step back.
-  for (const child of groups.structure.children) {
-    if (child.material) {
-      child.material.transparent = true;
-      if (child.userData.opacity === undefined) child.userData.opacity = child.material.opacity;
-      child.material.opacity = child.userData.opacity * (r && state.step > 0 && $('show-traversal').checked ? 0.3 : 1);
-    }
-  }
+  const counts = perAccel.get(state.accel) ? perAccel.get(state.accel).counts : { entered: 0, skipped: 0, tested: 0, hit: 0 };
   view.dataset.step = state.step;
   view.dataset.entered = counts.entered;
   view.dataset.skipped = counts.skipped;
@@ -693,7 +644,73 @@ function drawTraversal() {
   render3d();
 }
 
-function addPrimitives(tris, prims, color) {
+function drawTraversalOf(s, entry, walk, upto) {
+  const group = entry.traversal;
+  dispose(group);
+  const counts = { entered: 0, skipped: 0, tested: 0, hit: 0 };
+  const r = rayOf(s.accel);
+  if (r) {
+    const entered = [];
+    const skipped = [];
+    const testedTris = [];
+    const testedOther = [];
+    let current = null;
+    walk.steps.slice(0, upto).forEach((step, i) => {
+      if (step.kind === 'visit') {
+        const box = visitBox(s, step.node);
+        if (!box) return;
+        (step.entered ? entered : skipped).push(box);
+        if (i === upto - 1) current = { box, entered: step.entered };
+      } else {
+        counts.tested++;
+        if (triangleIndex.has(step.prim)) testedTris.push(triangleIndex.get(step.prim));
+        else testedOther.push(step.prim);
+      }
+    });
+    counts.entered = entered.length;
+    counts.skipped = skipped.length;
+    group.add(boxesLines(entered, COLOR.entered));
+    group.add(boxesLines(skipped, COLOR.skipped));
+    if (current) {
+      const size = new THREE.Vector3(...current.box[1]).sub(new THREE.Vector3(...current.box[0]));
+      const mesh = new THREE.Mesh(new THREE.BoxGeometry(size.x || 1e-6, size.y || 1e-6, size.z || 1e-6),
+        new THREE.MeshBasicMaterial({ color: current.entered ? COLOR.entered : COLOR.skipped, transparent: true, opacity: 0.22, depthWrite: false }));
+      mesh.position.set(...current.box[0]).add(size.clone().multiplyScalar(0.5));
+      group.add(mesh);
+    }
+    const done = upto >= walk.steps.length;
+    const hitPrim = done && r.hit ? r.hit.primitive : null;
+    addPrimitives(group, testedTris.filter((t) => hitPrim === null || t !== triangleIndex.get(hitPrim)), testedOther.filter((p) => p !== hitPrim), COLOR.tested);
+    if (hitPrim !== null) {
+      counts.hit = 1;
+      addPrimitives(group, triangleIndex.has(hitPrim) ? [triangleIndex.get(hitPrim)] : [], triangleIndex.has(hitPrim) ? [] : [hitPrim], COLOR.hit);
+    }
+    // The ray itself, to its hit (drawn once the walk has reached it) or
+    // out of the scene.
+    const o = new THREE.Vector3(...state.pick.ray.origin);
+    const dir = new THREE.Vector3(...state.pick.ray.direction);
+    const far = r.hit && done ? r.hit.t : o.distanceTo(bounds.getCenter(new THREE.Vector3())) + sceneSize;
+    const end = o.clone().add(dir.clone().multiplyScalar(far));
+    group.add(lines([...o.toArray(), ...end.toArray()], COLOR.ray));
+    if (r.hit && done) {
+      const dot = new THREE.Mesh(new THREE.SphereGeometry(sceneSize / 150, 12, 8), new THREE.MeshBasicMaterial({ color: COLOR.hit }));
+      dot.position.copy(end);
+      group.add(dot);
+    }
+  }
+  // Under a walk in progress the structure's own boxes step back.
+  const dim = r && upto > 0 && $('show-traversal').checked;
+  for (const child of entry.structure.children) {
+    if (child.material) {
+      child.material.transparent = true;
+      if (child.userData.opacity === undefined) child.userData.opacity = child.material.opacity;
+      child.material.opacity = child.userData.opacity * (dim ? 0.3 : 1);
+    }
+  }
+  return counts;
+}
+
+function addPrimitives(group, tris, prims, color) {
   const t = (data.primitives && data.primitives.triangles) || [];
   if (tris.length) {
     const pos = [];
@@ -701,28 +718,67 @@ function addPrimitives(tris, prims, color) {
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.Float32BufferAttribute(pos, 3));
     g.computeVertexNormals();
-    groups.traversal.add(new THREE.Mesh(g, new THREE.MeshLambertMaterial({ color, side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: -1 })));
+    group.add(new THREE.Mesh(g, new THREE.MeshLambertMaterial({ color, side: THREE.DoubleSide, polygonOffset: true, polygonOffsetFactor: -1 })));
   }
   for (const p of prims) {
     const s = sphereIndex.get(p);
     if (s) {
       const m = new THREE.Mesh(new THREE.SphereGeometry(s[3] * 1.01, 24, 16), new THREE.MeshLambertMaterial({ color }));
       m.position.set(s[0], s[1], s[2]);
-      groups.traversal.add(m);
+      group.add(m);
     } else if (otherIndex.has(p)) {
-      groups.traversal.add(boxesLines([otherIndex.get(p)], color));
+      group.add(boxesLines([otherIndex.get(p)], color));
     }
   }
 }
 
+// One viewport, or one per structure side by side, each labelled.
 function render3d() {
   if (!renderer) return;
   groups.primitives.visible = $('show-primitives').checked;
-  groups.structure.visible = $('show-structure').checked;
-  groups.traversal.visible = $('show-traversal').checked;
   groups.bvols.visible = $('show-bvols').checked;
+  const accels = shownAccels();
+  const w = view.clientWidth || 600;
+  const h = view.clientHeight || 400;
+  // The grid of viewports whose cells are nearest to square.
+  const n = Math.max(accels.length, 1);
+  let cols = 1;
+  const squareness = (c) => Math.abs(Math.log((w / c) / (h / Math.ceil(n / c))));
+  for (let c = 2; c <= n; c++) if (squareness(c) < squareness(cols)) cols = c;
+  const rows = Math.ceil(n / cols);
+  const vw = w / cols;
+  const vh = h / rows;
   sun.position.copy(camera.position);
-  renderer.render(scene3, camera);
+  renderer.setScissorTest(true);
+  renderer.setViewport(0, 0, w, h);
+  renderer.setScissor(0, 0, w, h);
+  renderer.clear();
+  const labels = $('view-labels');
+  labels.replaceChildren();
+  camera.aspect = vw / vh;
+  camera.updateProjectionMatrix();
+  const draw = (accel) => {
+    for (const [a, entry] of perAccel) {
+      entry.structure.visible = a === accel && $('show-structure').checked;
+      entry.traversal.visible = a === accel && $('show-traversal').checked;
+    }
+    renderer.render(scene3, camera);
+  };
+  if (!accels.length) draw(null);
+  accels.forEach((accel, i) => {
+    const x = (i % cols) * vw;
+    const y = h - (Math.floor(i / cols) + 1) * vh;
+    renderer.setViewport(x, y, vw, vh);
+    renderer.setScissor(x, y, vw, vh);
+    draw(accel);
+    const r = rayOf(accel);
+    const label = el('div', { class: 'view-label' + (accel === state.accel ? ' current' : ''),
+      text: accel + (r ? ` · ${r.counts.nodes} nodes, ${r.counts.tests} tests` : '') });
+    label.style.left = x + 'px';
+    label.style.top = (h - y - vh) + 'px';
+    labels.append(label);
+  });
+  renderer.setScissorTest(false);
 }
 
 function resize3d() {
@@ -731,8 +787,6 @@ function resize3d() {
   const h = view.clientHeight || 400;
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setSize(w, h);
-  camera.aspect = w / h;
-  camera.updateProjectionMatrix();
   render3d();
 }
 
@@ -740,12 +794,16 @@ if (renderer) {
   renderer.setClearColor(0x1d2230);
   view.append(renderer.domElement);
   renderer.domElement.id = 'view3d-canvas';
+  renderer.autoClear = false;
+  view.append(el('div', { id: 'view-labels' }));
   controls = new OrbitControls(camera, renderer.domElement);
   controls.addEventListener('change', render3d);
   window.addEventListener('resize', resize3d);
 }
 $('reset-view').addEventListener('click', resetView);
 for (const id of ['show-primitives', 'show-structure', 'show-bvols']) $(id).addEventListener('change', render3d);
+$('side-by-side').addEventListener('change', updateDepthControl);
+if (structures.length < 2) $('side-by-side').disabled = true;
 $('show-traversal').addEventListener('change', drawTraversal);
 for (const s of structures) $('structure').append(el('option', { value: s.accel, text: `${s.accel} (${s.family})` }));
 $('structure').addEventListener('change', () => selectTraversal($('structure').value, 'end'));
