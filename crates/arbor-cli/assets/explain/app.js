@@ -818,6 +818,7 @@ $('legend3d').append(
 const KIND_COLOR = { group: '#e9ecef', transform: '#cfe2ff', instance: '#d1e7dd', definition: '#fff3cd', surface: '#f8d7da' };
 function transformText(t) {
   if (!t) return '';
+  t = t.slice(0, 3); // a 4×4 matrix's last row adds nothing to say
   const move = t.every((row) => row.length === 4) ? t.map((row) => row[3]) : null;
   const linear = t.map((row) => row.slice(0, 3));
   const identity = linear.every((row, i) => row.every((v, j) => Math.abs(v - (i === j ? 1 : 0)) < 1e-9));
