@@ -69,14 +69,29 @@ def painted_fraction(d, canvas_id, background):
 
 
 def listed_traversal(d, accel):
-    """The traversal the page lists for `accel`: visits and tests, in order."""
+    """The traversal the page lists for `accel`: the top level's visits and
+    tests in order, and each placement's (instanced scenes) as
+    `--json` gives them."""
     Select(d.find_element(By.ID, "structure")).select_by_value(accel)
     rows = d.execute_script("""
-        return [...document.querySelectorAll('#traversal-list tbody tr')].map(
-          (r) => [r.dataset.node ?? null, r.dataset.entered ?? null, r.dataset.prim ?? null]);""")
-    visits = [{"node": int(n), "entered": e == "true"} for n, e, _ in rows if n is not None]
-    tests = [int(p) for _, _, p in rows if p is not None]
-    return visits, tests
+        return [...document.querySelectorAll('#traversal-list tbody tr')].map((r) => [
+          r.dataset.node ?? null, r.dataset.entered ?? null, r.dataset.prim ?? null,
+          r.dataset.entry ?? null, r.dataset.placement ?? null]);""")
+
+    def level(entry):
+        mine = [r for r in rows if r[3] == entry]
+        visits = [{"node": int(n), "entered": e == "true"} for n, e, _, _, _ in mine if n is not None]
+        tests = [int(p) for _, _, p, _, _ in mine if p is not None]
+        return visits, tests, {r[4] for r in mine}
+
+    visits, tests, _ = level(None)
+    entries = sorted({int(r[3]) for r in rows if r[3] is not None})
+    placements = []
+    for k in entries:
+        v, t, which = level(str(k))
+        assert len(which) == 1
+        placements.append({"placement": int(which.pop()), "visits": v, "tests": t})
+    return visits, tests, placements
 
 
 def pick(d, x, y):
@@ -159,9 +174,12 @@ def test_picked_traversal_equals_the_json_output(browser, pages, tmp_path, name)
         assert expected["pixel"] == list(pixel)
         assert [s["accel"] for s in expected["structures"]] == [s["accel"] for s in data["structures"]]
         for s in expected["structures"]:
-            visits, tests = listed_traversal(d, s["accel"])
+            visits, tests, placements = listed_traversal(d, s["accel"])
             assert visits == [{"node": v["node"], "entered": v["entered"]} for v in s["visits"]], s["accel"]
             assert tests == s["tests"], s["accel"]
+            assert placements == [{"placement": e["placement"],
+                                   "visits": [{"node": v["node"], "entered": v["entered"]} for v in e["visits"]],
+                                   "tests": e["tests"]} for e in s.get("placements", [])], s["accel"]
             row = d.find_element(By.CSS_SELECTOR, f'#counts tr[data-accel="{s["accel"]}"]')
             cells = [c.text for c in row.find_elements(By.TAG_NAME, "td")]
             assert cells[1] == str(s["counts"]["nodes"]) and cells[4] == str(s["counts"]["tests"])

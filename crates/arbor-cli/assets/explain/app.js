@@ -211,18 +211,52 @@ $('pick-form').addEventListener('submit', (e) => {
 // ---------------------------------------------------------------- traversal steps
 const rayOf = (accel) => state.pick && state.pick.structures.find((s) => s.accel === accel);
 
+// The first top-level primitive number of a placement of shared geometry
+// (world primitives come first, then one number per placement).
+const placementBase = (() => {
+  const p = data.primitives || {};
+  const shared = (data.scene_graph && data.scene_graph.flattening && data.scene_graph.flattening.shared) || [];
+  return (p.total || 0) - shared.reduce((sum, g) => sum + (g.placements || 0), 0);
+})();
+
 // The steps of one ray through one structure: its visits, and its primitive
 // tests placed after the leaf visit that made them when that can be told
 // (every entered leaf tests exactly its primitives, adding up to the tests
 // recorded); otherwise all tests follow the visits, and the page says so.
+// A placement's own traversal (instanced scenes) follows the top-level test
+// that entered it.
 function stepsOf(accel) {
   const r = rayOf(accel);
   if (!r) return { steps: [], interleaved: false };
-  const s = structureByAccel(accel);
+  const top = topLevelSteps(r, structureByAccel(accel));
+  const entries = r.placements || [];
+  if (!entries.length) return top;
+  const steps = [];
+  let k = 0;
+  for (const step of top.steps) {
+    steps.push(step);
+    if (step.kind === 'test' && k < entries.length && step.prim - placementBase === entries[k].placement) {
+      steps.push(...placementSteps(entries[k], k));
+      k++;
+    }
+  }
+  const inOrder = k === entries.length;
+  for (; k < entries.length; k++) steps.push(...placementSteps(entries[k], k));
+  return { steps, interleaved: top.interleaved && inOrder, placements: true };
+}
+
+function placementSteps(entry, k) {
+  const at = { placement: entry.placement, entry: k };
+  return entry.visits.map((v) => ({ kind: 'visit', node: v.node, entered: v.entered, ...at }))
+    .concat(entry.tests.map((p) => ({ kind: 'test', prim: p, ...at })));
+}
+
+function topLevelSteps(r, s) {
   const visits = r.visits.map((v, i) => ({ kind: 'visit', index: i, node: v.node, entered: v.entered }));
   const tests = r.tests.map((p, i) => ({ kind: 'test', index: i, prim: p }));
+  if (!visits.length || !tests.length) return { steps: visits.concat(tests), interleaved: true };
   const nodes = s && s.nodes;
-  if (nodes && tests.length) {
+  if (nodes && nodes.length) {
     const steps = [];
     let next = 0;
     let ok = true;
@@ -238,7 +272,7 @@ function stepsOf(accel) {
     }
     if (ok && next === tests.length) return { steps, interleaved: true };
   }
-  return { steps: visits.concat(tests), interleaved: tests.length === 0 };
+  return { steps: visits.concat(tests), interleaved: false };
 }
 
 function cellBox(s, cell) {
@@ -249,8 +283,8 @@ function cellBox(s, cell) {
   const lo = [s.origin[0] + ix * s.cell_size[0], s.origin[1] + iy * s.cell_size[1], s.origin[2] + iz * s.cell_size[2]];
   return [lo, [lo[0] + s.cell_size[0], lo[1] + s.cell_size[1], lo[2] + s.cell_size[2]]];
 }
-function visitBox(s, node) {
-  if (!s) return null;
+function visitBox(s, node, placement) {
+  if (!s || placement !== undefined) return null;
   if (s.family === 'grid') return s.resolution ? cellBox(s, node) : null;
   const n = s.nodes && s.nodes[node];
   return n ? n.box : null;
@@ -284,7 +318,8 @@ function fillCounts() {
   if (!state.pick) return;
   const most = Math.max(1, ...state.pick.structures.map((r) => r.counts.nodes + r.counts.tests));
   for (const r of state.pick.structures) {
-    const entered = r.visits.filter((v) => v.entered).length;
+    const all = r.visits.concat(...(r.placements || []).map((e) => e.visits));
+    const entered = all.filter((v) => v.entered).length;
     const work = el('td');
     const nodesBar = el('span', { class: 'bar', title: 'nodes visited' });
     nodesBar.style.width = (60 * r.counts.nodes) / most + 'px';
@@ -293,12 +328,20 @@ function fillCounts() {
     work.append(nodesBar, testsBar);
     const row = el('tr', { 'data-accel': r.accel },
       el('td', { text: r.accel }), el('td', { text: String(r.counts.nodes) }), el('td', { text: String(entered) }),
-      el('td', { text: String(r.visits.length - entered) }), el('td', { text: String(r.counts.tests) }),
+      el('td', { text: String(all.length - entered) }), el('td', { text: String(r.counts.tests) }),
       el('td', { text: r.hit ? `#${r.hit.primitive}, t = ${fmt(r.hit.t)}` : 'none' }), work);
     if (r.accel === state.accel) row.classList.add('current');
     row.addEventListener('click', () => selectTraversal(r.accel, 'end'));
     body.append(row);
   }
+}
+
+// The last traversal entry of placement `p` (the one a hit inside it was
+// found in).
+function lastEntryOf(r, p) {
+  let k = -1;
+  (r.placements || []).forEach((e, i) => { if (e.placement === p) k = i; });
+  return k;
 }
 
 function fillList() {
@@ -308,27 +351,38 @@ function fillList() {
   const r = rayOf(state.accel);
   currentSteps.steps.forEach((step, i) => {
     let row;
+    const inner = step.placement !== undefined;
+    const where = inner ? `placement ${step.placement} · ` : '';
     if (step.kind === 'visit') {
-      const box = visitBox(s, step.node);
+      const box = visitBox(s, step.node, step.placement);
       row = el('tr', { 'data-node': String(step.node), 'data-entered': String(step.entered) },
         el('td', { text: String(i + 1) }),
         el('td', {}, el('span', { class: 'kind ' + (step.entered ? 'entered' : 'skipped'), text: step.entered ? 'entered' : 'skipped' })),
-        el('td', { text: nodeName(s, step.node) }),
-        el('td', { text: box ? `box ${fmtVec(box[0])} – ${fmtVec(box[1])}` : '' }));
+        el('td', { text: where + (inner ? `node ${step.node}` : nodeName(s, step.node)) }),
+        el('td', { text: box ? `box ${fmtVec(box[0])} – ${fmtVec(box[1])}` : inner ? 'in the shared geometry\'s own space' : '' }));
     } else {
-      const isHit = r && r.hit && r.hit.primitive === step.prim;
+      const isHit = r && r.hit && (inner
+        ? r.hit.placement === step.placement && r.hit.shared_primitive === step.prim && step.entry === lastEntryOf(r, step.placement)
+        : r.hit.primitive === step.prim && r.hit.placement === undefined);
+      const enters = !inner && r.placements && r.placements.some((e) => e.placement === step.prim - placementBase);
       row = el('tr', { 'data-prim': String(step.prim) },
         el('td', { text: String(i + 1) }),
         el('td', {}, el('span', { class: 'kind test' + (isHit ? ' hit' : ''), text: 'tested' })),
-        el('td', { text: `primitive ${step.prim}` }),
-        el('td', { text: isHit ? 'the closest hit of this ray' : '' }));
+        el('td', { text: where + (inner ? `its primitive ${step.prim}` : `primitive ${step.prim}`) }),
+        el('td', { text: isHit ? 'the closest hit of this ray' : enters ? `placement ${step.prim - placementBase} of shared geometry: the ray goes inside` : '' }));
+    }
+    if (inner) {
+      row.dataset.placement = String(step.placement);
+      row.dataset.entry = String(step.entry);
+      row.classList.add('inner');
     }
     row.addEventListener('click', () => showStep(i + 1));
     body.append(row);
   });
   const hit = r && r.hit;
   $('hit-summary').textContent = !r ? '' : hit
-    ? `Hit: primitive ${hit.primitive} at t = ${fmt(hit.t)} (${r.counts.nodes} nodes visited, ${r.counts.tests} primitives tested).`
+    ? `Hit: primitive ${hit.primitive}` + (hit.placement !== undefined ? ` (placement ${hit.placement}, its primitive ${hit.shared_primitive})` : '') +
+      ` at t = ${fmt(hit.t)} (${r.counts.nodes} nodes visited, ${r.counts.tests} primitives tested).`
     : `No hit (${r.counts.nodes} nodes visited, ${r.counts.tests} primitives tested).`;
   $('hit-summary').dataset.primitive = hit ? hit.primitive : '';
 }
@@ -347,11 +401,16 @@ function showStep(k) {
   if (now) now.scrollIntoView({ block: 'nearest' });
   const s = structureByAccel(state.accel);
   const step = steps[state.step - 1];
-  const order = currentSteps.interleaved ? '' : ' (This list gives the visits first and then the tests: the data does not say which visit made each test.)';
+  const order = (currentSteps.interleaved ? '' : ' (This list gives the visits first and then the tests: the data does not say which visit made each test.)') +
+    (currentSteps.placements ? ' Inside a placement of shared geometry its own visits come first, then its tests; its boxes are in the geometry\'s own space and not drawn.' : '');
   let text;
   if (!state.pick) text = 'Pick a pixel to follow its ray.';
   else if (!step) text = `Step 0: the ray of pixel (${state.pick.pixel.join(', ')}) has not met ${state.accel} yet. Press Step to walk it.` + order;
-  else if (step.kind === 'visit') {
+  else if (step.placement !== undefined) {
+    text = step.kind === 'visit'
+      ? `Step ${state.step}: inside placement ${step.placement}, the ray ${step.entered ? 'enters' : 'skips'} node ${step.node} of the shared geometry's own structure (not drawn: it is in the geometry's own space).`
+      : `Step ${state.step}: inside placement ${step.placement}, the shared geometry's primitive ${step.prim} is tested.`;
+  } else if (step.kind === 'visit') {
     text = step.entered
       ? `Step ${state.step}: the ray overlaps the box of ${nodeName(s, step.node)}, so the traversal goes inside.`
       : `Step ${state.step}: the ray misses the box of ${nodeName(s, step.node)} (or meets it beyond the nearest hit so far), so everything inside it is skipped.`;
@@ -460,13 +519,16 @@ function dispose(group) {
 }
 
 // Primitives: triangles as one mesh, spheres as instances, others as boxes.
-const triangleIndex = new Map(); // primitive number -> drawn triangle
+const triangleIndex = new Map(); // primitive number -> its drawn triangles
 const sphereIndex = new Map(); // primitive number -> [cx, cy, cz, r]
 const otherIndex = new Map(); // primitive number -> box
 {
   const p = data.primitives || {};
   const t = p.triangles || [];
-  (p.triangle_ids || []).forEach((id, i) => triangleIndex.set(id, i));
+  (p.triangle_ids || []).forEach((id, i) => {
+    if (!triangleIndex.has(id)) triangleIndex.set(id, []);
+    triangleIndex.get(id).push(i);
+  });
   if (t.length) {
     const g = new THREE.BufferGeometry();
     g.setAttribute('position', new THREE.Float32BufferAttribute(t, 3));
@@ -517,10 +579,13 @@ const otherIndex = new Map(); // primitive number -> box
   else $('show-bvols').disabled = true;
 }
 
+// The deepest level the page holds whole (deeper nodes are given only
+// where a picked ray visits them).
 function maxDepthOf(s) {
   if (!s || !s.nodes || !s.nodes.length) return 0;
+  if (typeof s.depth_drawn === 'number') return s.depth_drawn;
   let d = 0;
-  for (const n of s.nodes) d = Math.max(d, n.depth);
+  for (const n of s.nodes) if (n) d = Math.max(d, n.depth);
   return d;
 }
 
@@ -548,11 +613,12 @@ function drawStructure(s, group, depth) {
     drawn.cells = cells.length;
     drawn.of = (s.occupied || []).length;
     group.add(boxesLines(cells, COLOR.cell, 0.55));
-  } else if (s.nodes && s.nodes.length) {
+  } else if (s.nodes && s.nodes[0]) {
     const atLevel = [];
     const finished = [];
     const planes = [];
     for (const n of s.nodes) {
+      if (!n) continue;
       if (n.depth === d) atLevel.push(n);
       else if (n.depth < d && (!n.children || !n.children.length)) finished.push(n);
       if (s.family === 'kdtree' && n.axis !== null && n.axis !== undefined && n.depth <= d) planes.push(n);
@@ -657,18 +723,18 @@ function drawTraversalOf(s, entry, walk, upto) {
     let current = null;
     walk.steps.slice(0, upto).forEach((step, i) => {
       if (step.kind === 'visit') {
-        const box = visitBox(s, step.node);
+        counts[step.entered ? 'entered' : 'skipped']++;
+        const box = visitBox(s, step.node, step.placement);
         if (!box) return;
         (step.entered ? entered : skipped).push(box);
         if (i === upto - 1) current = { box, entered: step.entered };
       } else {
         counts.tested++;
-        if (triangleIndex.has(step.prim)) testedTris.push(triangleIndex.get(step.prim));
+        if (step.placement !== undefined) return; // drawn as its placement
+        if (triangleIndex.has(step.prim)) testedTris.push(...triangleIndex.get(step.prim));
         else testedOther.push(step.prim);
       }
     });
-    counts.entered = entered.length;
-    counts.skipped = skipped.length;
     group.add(boxesLines(entered, COLOR.entered));
     group.add(boxesLines(skipped, COLOR.skipped));
     if (current) {
@@ -680,10 +746,11 @@ function drawTraversalOf(s, entry, walk, upto) {
     }
     const done = upto >= walk.steps.length;
     const hitPrim = done && r.hit ? r.hit.primitive : null;
-    addPrimitives(group, testedTris.filter((t) => hitPrim === null || t !== triangleIndex.get(hitPrim)), testedOther.filter((p) => p !== hitPrim), COLOR.tested);
+    const hitTris = new Set(hitPrim !== null && triangleIndex.has(hitPrim) ? triangleIndex.get(hitPrim) : []);
+    addPrimitives(group, testedTris.filter((t) => !hitTris.has(t)), testedOther.filter((p) => p !== hitPrim), COLOR.tested);
     if (hitPrim !== null) {
       counts.hit = 1;
-      addPrimitives(group, triangleIndex.has(hitPrim) ? [triangleIndex.get(hitPrim)] : [], triangleIndex.has(hitPrim) ? [] : [hitPrim], COLOR.hit);
+      addPrimitives(group, [...hitTris], triangleIndex.has(hitPrim) ? [] : [hitPrim], COLOR.hit);
     }
     // The ray itself, to its hit (drawn once the walk has reached it) or
     // out of the scene.
@@ -935,7 +1002,10 @@ function drawSceneGraph() {
   if (f.shared && f.shared.length) {
     box.append(el('p', { text: 'Kept shared (one copy, placed by its transforms):' }));
     const ul = el('ul');
-    for (const s of f.shared) ul.append(el('li', { text: `${s.label}: ${s.placements} placement${s.placements === 1 ? '' : 's'}` }));
+    for (const s of f.shared) {
+      ul.append(el('li', { text: `${s.label}: ` + (s.primitives !== undefined ? `${s.primitives} primitives, ` : '') +
+        `${s.placements} placement${s.placements === 1 ? '' : 's'}` }));
+    }
     box.append(ul);
   }
   if (f.summary && f.summary.length) {
