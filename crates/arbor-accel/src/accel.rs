@@ -2,8 +2,8 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::{
-    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, List, Primitives,
-    Ray, WideBvh,
+    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, Layout, List,
+    Primitives, Ray, WideBvh,
 };
 
 /// What every acceleration structure answers: the candidates a ray may hit.
@@ -200,6 +200,20 @@ impl Accel {
             AccelKind::KdTree => Accel::KdTree(KdTree::build(prims, &params.kdtree)),
             AccelKind::BvhWide => Accel::Wide(WideBvh::build(prims, &params.bvh)),
             _ => unreachable!("every other kind is a BVH"),
+        }
+    }
+}
+
+impl Accel {
+    /// The structure's shape for drawing, in the numbering its traversal
+    /// reports to a [`crate::Recorder`] (see [`Layout::index`]).
+    pub fn layout(&self) -> Layout {
+        match self {
+            Accel::List(_) => Layout::List,
+            Accel::Bvh(a) => a.layout(),
+            Accel::Grid(a) => a.layout(),
+            Accel::KdTree(a) => a.layout(),
+            Accel::Wide(a) => a.layout(),
         }
     }
 }

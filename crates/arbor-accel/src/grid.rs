@@ -5,8 +5,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::counters::{count_node, count_test};
 use crate::util::{offer_any, offer_closest, prepare, widen_up, Mailbox};
-use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
+use crate::{Aabb, AccelStats, Accelerator, Counters, GridLayout, Layout, Primitives, Ray};
 
 /// Grid build parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -169,6 +170,19 @@ impl Grid {
         self.res
     }
 
+    /// The cells for drawing, numbered as traversal reports them.
+    pub fn layout(&self) -> Layout {
+        Layout::Grid(GridLayout {
+            bounds: self.bounds,
+            resolution: self.res,
+            planes: self.planes.clone(),
+            occupied: (0..self.start.len().saturating_sub(1))
+                .filter(|&c| self.start[c + 1] > self.start[c])
+                .map(|c| c as u32)
+                .collect(),
+        })
+    }
+
     /// Walks the cells the ray passes, front to back, calling `visit` with
     /// each cell's primitives and the distance at which the ray leaves the
     /// cell, until `visit` returns `true` or the ray leaves the grid.
@@ -224,8 +238,8 @@ impl Grid {
         }
         let (rx, ry) = (self.res[0] as usize, self.res[1] as usize);
         loop {
-            counters.node();
             let c = (cell[2] * ry + cell[1]) * rx + cell[0];
+            count_node(counters, c as u32);
             let exit = next[0].min(next[1]).min(next[2]);
             let slice = &self.prims[self.start[c] as usize..self.start[c + 1] as usize];
             if visit(slice, exit, counters) {
@@ -369,7 +383,7 @@ impl Accelerator for Grid {
         self.walk(&walk_ray, counters, |prims, exit, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
-                    counters.test();
+                    count_test(counters, p);
                     if let Some(t) = hit(p, &ray) {
                         ray.tmax = ray.tmax.min(t);
                     }
@@ -394,7 +408,7 @@ impl Accelerator for Grid {
         self.walk(ray, counters, |prims, exit, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
-                    counters.test();
+                    count_test(counters, p);
                     if hit(p, ray) {
                         found = true;
                         return true;

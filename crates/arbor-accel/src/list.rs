@@ -1,3 +1,4 @@
+use crate::counters::count_test;
 use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
 
 /// Brute force: every primitive is tested against every ray. The reference
@@ -24,7 +25,7 @@ impl Accelerator for List {
     {
         let mut ray = *ray;
         for prim in 0..self.count {
-            counters.test();
+            count_test(counters, prim);
             if let Some(t) = hit(prim, &ray) {
                 ray.tmax = ray.tmax.min(t);
             }
@@ -37,7 +38,7 @@ impl Accelerator for List {
         F: FnMut(u32, &Ray) -> bool,
     {
         (0..self.count).any(|prim| {
-            counters.test();
+            count_test(counters, prim);
             hit(prim, ray)
         })
     }

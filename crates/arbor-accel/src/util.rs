@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 
 use crate::aabb::SLAB_TFAR_SCALE;
+use crate::counters::count_test;
 use crate::{Aabb, Counters, Primitives, Ray};
 
 /// Relative widening that covers the three roundings of a slab distance
@@ -175,7 +176,7 @@ where
     F: FnMut(u32, &Ray) -> Option<f32>,
 {
     for &p in prims {
-        counters.test();
+        count_test(counters, p);
         if let Some(t) = hit(p, ray) {
             ray.tmax = ray.tmax.min(t);
         }
@@ -191,7 +192,7 @@ where
     F: FnMut(u32, &Ray) -> bool,
 {
     prims.iter().any(|&p| {
-        counters.test();
+        count_test(counters, p);
         hit(p, ray)
     })
 }

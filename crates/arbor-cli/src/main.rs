@@ -10,6 +10,7 @@ mod accel_arg;
 mod batch;
 mod bench;
 mod compare;
+mod explain;
 mod farm;
 mod info;
 mod merge;
@@ -74,6 +75,13 @@ enum Command {
         after_help = "Examples:\n  arbor farm slurm shot.xml --tiles 64 --partition gpu --account proj42 -o shot.png\n  arbor farm status shot.png"
     )]
     Farm(farm::FarmArgs),
+    /// Write a self-contained HTML page that shows the scene graph, the
+    /// acceleration structures and camera rays' traversals of them (or one
+    /// ray's traversal as JSON).
+    #[command(
+        after_help = "Examples:\n  arbor explain scene.xml -o scene.html\n  arbor explain model.obj --accel bvh-sah,kdtree -o model.html\n  arbor explain scene.xml --ray 120,80 --json ray.json   # one ray, no page"
+    )]
+    Explain(explain::ExplainArgs),
 }
 
 /// An error that is the user's input's fault (exit status 2), as opposed to
@@ -113,6 +121,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Merge(args) => merge::run(args),
         Command::Farm(args) => farm::run(args),
+        Command::Explain(args) => explain::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

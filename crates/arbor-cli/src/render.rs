@@ -171,22 +171,12 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
         crate::output::check_writable(path, "--heatmap")?;
     }
 
-    let mut scene = match &args.scene {
-        Some(path) => {
-            let options = arbor::load::ModelOptions {
-                up: args.up,
-                auto_camera: args.camera.is_some(),
-            };
-            let loaded = load_scene_or_model(path, &options)?;
-            if !args.quiet {
-                for w in &loaded.warnings {
-                    eprintln!("{w}");
-                }
-            }
-            loaded.scene
-        }
-        None => arbor::default_scene::classroom(),
-    };
+    let mut scene = load_input(
+        args.scene.as_deref(),
+        args.up,
+        args.camera.is_some(),
+        args.quiet,
+    )?;
     args.overrides.apply(&mut scene)?;
     let (region, tile) = match spec {
         // `resolve` names --region; a crop is the same rectangle, named as given.
@@ -204,6 +194,27 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
     })
 }
 
+/// The input as `arbor render` reads it: a scene or model file (printing
+/// the loader's warnings unless `quiet`), or without one the built-in
+/// classroom.
+pub(crate) fn load_input(
+    path: Option<&Path>,
+    up: Option<arbor::load::Up>,
+    auto_camera: bool,
+    quiet: bool,
+) -> anyhow::Result<Scene> {
+    let Some(path) = path else {
+        return Ok(arbor::default_scene::classroom());
+    };
+    let loaded = load_scene_or_model(path, &arbor::load::ModelOptions { up, auto_camera })?;
+    if !quiet {
+        for w in &loaded.warnings {
+            eprintln!("{w}");
+        }
+    }
+    Ok(loaded.scene)
+}
+
 /// The tracer and what building it took.
 struct Built {
     tracer: Tracer,
@@ -212,19 +223,38 @@ struct Built {
     took: std::time::Duration,
 }
 
+/// The scene flattened as `arbor render` flattens it (kept in objects for
+/// `--bvol`), or the one-line error.
+pub(crate) fn flatten(
+    scene: &Scene,
+    bvol: Option<arbor::tracer::BoundingVolumeKind>,
+    max_instances: u64,
+) -> anyhow::Result<Flattened> {
+    Ok(match bvol {
+        Some(_) => Flattened::bounded(scene, max_instances),
+        None => Flattened::new(scene, max_instances),
+    }
+    .map_err(|e| InputError(e.to_string()))?)
+}
+
+/// The tracer `arbor render` builds over `flat`.
+pub(crate) fn tracer(
+    flat: Flattened,
+    kind: AccelKind,
+    bvol: Option<arbor::tracer::BoundingVolumeKind>,
+) -> Tracer {
+    match bvol {
+        Some(volume) => Tracer::from_flattened_bounded(flat, kind, volume),
+        None => Tracer::from_flattened(flat, kind),
+    }
+}
+
 /// Flattens the scene and builds the acceleration structure.
 fn build(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Built> {
-    let flat = match args.bvol {
-        Some(_) => Flattened::bounded(scene, args.max_instances),
-        None => Flattened::new(scene, args.max_instances),
-    }
-    .map_err(|e| InputError(e.to_string()))?;
+    let flat = flatten(scene, args.bvol, args.max_instances)?;
     let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
     let start = Instant::now();
-    let tracer = match args.bvol {
-        Some(volume) => Tracer::from_flattened_bounded(flat, args.accel, volume),
-        None => Tracer::from_flattened(flat, args.accel),
-    };
+    let tracer = tracer(flat, args.accel, args.bvol);
     Ok(Built {
         tracer,
         unique,
@@ -572,7 +602,8 @@ fn slow_render_warning(args: &RenderArgs, scene: &Scene, tracer: &Tracer, estima
     )
 }
 
-fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
+/// The progress bar of long work (hidden when `quiet`).
+pub(crate) fn progress_bar(total: u64, quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }

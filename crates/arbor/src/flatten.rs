@@ -204,6 +204,32 @@ impl FlatScene {
         self.bounds[i]
     }
 
+    /// Primitive `i`'s corners in this scene's space, if it is a triangle
+    /// (for drawing it).
+    pub fn triangle_corners(&self, i: usize) -> Option<[DVec3; 3]> {
+        let prim = &self.primitives[i];
+        let Shape::Triangle { mesh, index } = prim.shape else {
+            return None;
+        };
+        let (_, p) = self.triangle(mesh, index);
+        Some(match self.transform(prim.transform) {
+            Some(t) => p.map(|q| t.point_to_world(q)),
+            None => p,
+        })
+    }
+
+    /// Primitive `i`'s centre and radius, if it is a sphere that no
+    /// transform distorts (for drawing it).
+    pub fn plain_sphere(&self, i: usize) -> Option<(DVec3, f64)> {
+        let prim = &self.primitives[i];
+        match prim.shape {
+            Shape::Sphere { center, radius } if prim.transform == NO_TRANSFORM => {
+                Some((center, radius))
+            }
+            _ => None,
+        }
+    }
+
     fn shader_index(&mut self, shader: &Arc<Shader>) -> u32 {
         // Shaders are few; a linear search by pointer keeps them shared.
         if let Some(i) = self.shaders.iter().position(|s| Arc::ptr_eq(s, shader)) {

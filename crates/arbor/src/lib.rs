@@ -44,4 +44,5 @@ pub mod stats;
 pub mod surface;
 pub mod texture;
 pub mod tracer;
+pub mod traversal;
 pub mod xml;

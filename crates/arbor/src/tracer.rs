@@ -57,6 +57,11 @@ const PAD_SCALE: f64 = 1.0 / (1u64 << 19) as f64;
 pub trait SplitCounters: Counters + Default {
     /// Adds `other`'s counts to these.
     fn merge(&mut self, other: Self);
+    /// The counts that follow (on the split-off counters) are placement
+    /// `placement`'s bottom-level traversal; for recorders
+    /// ([`crate::traversal::TraversalRecord`]), which keep levels apart.
+    #[inline(always)]
+    fn enter_placement(&mut self, _placement: u32) {}
 }
 
 impl SplitCounters for NoCounters {
@@ -202,6 +207,17 @@ impl Level {
                 .is_some()
         })
     }
+}
+
+/// Which primitive a ray hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HitId {
+    /// The top-level primitive: a world primitive's index, or the number
+    /// of world primitives plus the placement (as the statistics count).
+    pub primitive: u32,
+    /// For a placement: the placement and the primitive within its shared
+    /// geometry.
+    pub shared: Option<(u32, u32)>,
 }
 
 /// Where the nearest hit of a top-level query lies.
@@ -416,6 +432,12 @@ impl Tracer {
         &self.top
     }
 
+    /// The bottom-level structure of the shared geometry that placement
+    /// `placement` places (in that geometry's own space).
+    pub fn placement_accel(&self, placement: u32) -> &Accel {
+        &self.shared[self.placements[placement as usize].geometry as usize].accel
+    }
+
     /// Which structure this is.
     pub fn kind(&self) -> AccelKind {
         self.kind
@@ -450,6 +472,19 @@ impl Tracer {
         tmax: f64,
         counters: &mut C,
     ) -> Option<Hit<'_>> {
+        self.closest_identified(o, d, tmin, tmax, counters)
+            .map(|(_, hit)| hit)
+    }
+
+    /// [`Tracer::closest_counted`], also naming the primitive hit.
+    pub fn closest_identified<C: SplitCounters>(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        tmin: f64,
+        tmax: f64,
+        counters: &mut C,
+    ) -> Option<(HitId, Hit<'_>)> {
         let (ray, t0) = self.frame.f32_ray(o, d, tmin, tmax)?;
         let n_world = self.world.len() as u32;
         let mut best: Option<(u32, Found)> = None;
@@ -471,6 +506,7 @@ impl Tracer {
                 );
                 let cull = best_so_far.map_or(tmax, |(_, t)| t);
                 let level = &self.shared[p.geometry as usize];
+                inner.enter_placement(placement);
                 let (local, candidate) = level.closest(lo, ld, tmin, tmax, cull, &mut inner)?;
                 Found::Shared {
                     placement,
@@ -485,33 +521,47 @@ impl Tracer {
             Some(cull_distance(found.t() - t0))
         });
         counters.merge(inner);
-        let (_, found) = best?;
-        Some(match found {
-            Found::World(prim, c) => self.world.hit(prim as usize, o, d, c),
-            Found::Shared {
-                placement,
-                prim,
-                candidate,
-            } => {
-                let p = &self.placements[placement as usize];
-                let (lo, ld) = (
-                    p.inverse.transform_point3(o),
-                    p.inverse.transform_vector3(d),
-                );
-                let local =
-                    self.shared[p.geometry as usize]
-                        .scene
-                        .hit(prim as usize, lo, ld, candidate);
-                Hit {
-                    t: candidate.t,
-                    point: o + candidate.t * d,
-                    normal: p.normal_to_world(local.normal),
-                    uv: local.uv,
-                    color: local.color,
-                    shader: local.shader,
+        let (top, found) = best?;
+        let id = HitId {
+            primitive: top,
+            shared: match found {
+                Found::World(..) => None,
+                Found::Shared {
+                    placement, prim, ..
+                } => Some((placement, prim)),
+            },
+        };
+        Some((
+            id,
+            match found {
+                Found::World(prim, c) => self.world.hit(prim as usize, o, d, c),
+                Found::Shared {
+                    placement,
+                    prim,
+                    candidate,
+                } => {
+                    let p = &self.placements[placement as usize];
+                    let (lo, ld) = (
+                        p.inverse.transform_point3(o),
+                        p.inverse.transform_vector3(d),
+                    );
+                    let local = self.shared[p.geometry as usize].scene.hit(
+                        prim as usize,
+                        lo,
+                        ld,
+                        candidate,
+                    );
+                    Hit {
+                        t: candidate.t,
+                        point: o + candidate.t * d,
+                        normal: p.normal_to_world(local.normal),
+                        uv: local.uv,
+                        color: local.color,
+                        shader: local.shader,
+                    }
                 }
-            }
-        })
+            },
+        ))
     }
 
     /// Whether anything lies on `o + t d` with `t` in `(tmin, tmax)`.
@@ -545,6 +595,7 @@ impl Tracer {
                 p.inverse.transform_point3(o),
                 p.inverse.transform_vector3(d),
             );
+            inner.enter_placement(prim - n_world);
             self.shared[p.geometry as usize].occluded(lo, ld, tmin, tmax, &mut inner)
         });
         counters.merge(inner);

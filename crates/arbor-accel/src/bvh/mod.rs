@@ -23,8 +23,9 @@ use std::mem::MaybeUninit;
 use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 use crate::aabb::widen_exit;
+use crate::counters::{count_node, skip_node};
 use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
-use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray};
+use crate::{Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, Primitives, Ray};
 
 /// Depth from which every builder stops optimising and splits by count, so
 /// that no tree is deeper than `FORCE_MEDIAN_DEPTH + 32` levels whatever the
@@ -247,6 +248,38 @@ impl Bvh {
         &self.prims
     }
 
+    /// The nodes for drawing, indexed as [`Bvh::nodes`] (and as traversal
+    /// reports them).
+    pub fn layout(&self) -> Layout {
+        let mut nodes: Vec<LayoutNode> = self
+            .nodes
+            .iter()
+            .map(|n| LayoutNode {
+                bounds: n.aabb(),
+                depth: 0,
+                children: Vec::new(),
+                primitives: n.count,
+                split: None,
+            })
+            .collect();
+        // Depth-first: a parent precedes its children.
+        for (i, n) in self.nodes.iter().enumerate() {
+            if !n.is_leaf() {
+                let depth = nodes[i].depth + 1;
+                let kids = [i as u32 + 1, n.offset];
+                for k in kids {
+                    nodes[k as usize].depth = depth;
+                }
+                nodes[i].children = kids.to_vec();
+            }
+        }
+        Layout::Tree {
+            nodes,
+            leaf_slots: Vec::new(),
+            leaf_base: 0,
+        }
+    }
+
     /// Every leaf as `(first, count)`, sorted by `first`: the depth-first
     /// layout already lists them so (a left subtree holds the lower slots),
     /// which is checked, not assumed.
@@ -336,6 +369,16 @@ impl RayBox {
     }
 }
 
+/// Records the children whose box test failed (`(node, hit)` pairs).
+#[inline(always)]
+fn skip_missed<C: Counters>(counters: &mut C, children: [(usize, bool); 2]) {
+    for (node, hit) in children {
+        if !hit {
+            skip_node(counters, node as u32);
+        }
+    }
+}
+
 impl Accelerator for Bvh {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
@@ -349,13 +392,14 @@ impl Accelerator for Bvh {
         };
         let rb = RayBox::new(&ray);
         if rb.hit(root, widen_up(ray.tmax)).is_none() {
+            skip_node(counters, 0);
             return;
         }
         let mut stack = [(0u32, 0f32); STACK_SIZE];
         let mut sp = 0;
         let mut node = 0usize;
         loop {
-            counters.node();
+            count_node(counters, node as u32);
             let n = &self.nodes[node];
             if n.is_leaf() {
                 let first = n.offset as usize;
@@ -370,6 +414,9 @@ impl Accelerator for Bvh {
                 let wide = widen_up(ray.tmax);
                 let hl = rb.hit(&self.nodes[l], wide);
                 let hr = rb.hit(&self.nodes[r], wide);
+                if C::RECORDS {
+                    skip_missed(counters, [(l, hl.is_some()), (r, hr.is_some())]);
+                }
                 match (hl, hr) {
                     (Some(tl), Some(tr)) => {
                         // Nearest child first; the other waits with its entry
@@ -401,6 +448,8 @@ impl Accelerator for Bvh {
                     node = nd as usize;
                     break;
                 }
+                // Entered when pushed, but beyond the closest hit by now.
+                skip_node(counters, nd);
             }
         }
     }
@@ -419,13 +468,14 @@ impl Accelerator for Bvh {
         let rb = RayBox::new(ray);
         let wide = widen_up(ray.tmax);
         if rb.hit(root, wide).is_none() {
+            skip_node(counters, 0);
             return false;
         }
         let mut stack = [0u32; STACK_SIZE];
         let mut sp = 0;
         let mut node = 0usize;
         loop {
-            counters.node();
+            count_node(counters, node as u32);
             let n = &self.nodes[node];
             if n.is_leaf() {
                 let first = n.offset as usize;
@@ -441,6 +491,9 @@ impl Accelerator for Bvh {
                 let (l, r) = (node + 1, n.offset as usize);
                 let hl = rb.hit(&self.nodes[l], wide).is_some();
                 let hr = rb.hit(&self.nodes[r], wide).is_some();
+                if C::RECORDS {
+                    skip_missed(counters, [(l, hl), (r, hr)]);
+                }
                 match (hl, hr) {
                     (true, true) => {
                         stack[sp] = r as u32;

@@ -41,8 +41,9 @@ use rayon::prelude::*;
 
 use super::lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 use super::{Bvh, BvhBuilder, BvhParams, RayBox, STACK_SIZE};
+use crate::counters::{count_node, skip_node};
 use crate::util::{offer_any, offer_closest, prefetch, widen_up};
-use crate::{Aabb, AccelStats, Accelerator, Counters, Primitives, Ray, Vec3};
+use crate::{Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, Primitives, Ray, Vec3};
 
 /// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
@@ -147,6 +148,67 @@ impl WideBvh {
             wide.nodes[w] = node;
         }
         wide
+    }
+}
+
+impl WideBvh {
+    /// The tree for drawing: the 8-wide nodes first (node `i` is
+    /// `nodes[i]`, its box the union of its children's), then the leaves in
+    /// the order of their primitive slots. A visit of an 8-wide node is one
+    /// step of traversal that tests its (up to) eight child boxes at once; a
+    /// visit of a leaf is one step that tests its primitives.
+    pub fn layout(&self) -> Layout {
+        let base = self.nodes.len() as u32;
+        let mut leaf_slots: Vec<u32> = self
+            .nodes
+            .iter()
+            .flat_map(|n| (0..WIDTH).filter(|&i| n.count[i] > 0).map(|i| n.child[i]))
+            .collect();
+        leaf_slots.sort_unstable();
+        let blank = LayoutNode {
+            bounds: Aabb::EMPTY,
+            depth: 0,
+            children: Vec::new(),
+            primitives: 0,
+            split: None,
+        };
+        let mut nodes = vec![blank; self.nodes.len() + leaf_slots.len()];
+        if self.nodes.is_empty() {
+            return Layout::Tree {
+                nodes,
+                leaf_slots,
+                leaf_base: base,
+            };
+        }
+        nodes[0].bounds = self.bounds;
+        // (node, depth), parents before children.
+        let mut todo = vec![(0usize, 0u32)];
+        while let Some((i, depth)) = todo.pop() {
+            let n = &self.nodes[i];
+            nodes[i].depth = depth;
+            for lane in (0..WIDTH).filter(|&l| n.child[l] != super::lanes::EMPTY) {
+                let b = Aabb::new(
+                    Vec3::from_array(std::array::from_fn(|a| n.bounds[MIN + a][lane])),
+                    Vec3::from_array(std::array::from_fn(|a| n.bounds[MAX + a][lane])),
+                );
+                let k = if n.count[lane] > 0 {
+                    let k = base + leaf_slots.partition_point(|&s| s < n.child[lane]) as u32;
+                    nodes[k as usize].primitives = n.count[lane];
+                    nodes[k as usize].depth = depth + 1;
+                    k
+                } else {
+                    todo.push((n.child[lane] as usize, depth + 1));
+                    n.child[lane]
+                };
+                nodes[k as usize].bounds = b;
+                nodes[i].children.push(k);
+            }
+        }
+        Layout::Tree {
+            nodes,
+            leaf_slots,
+            leaf_base: base,
+        }
     }
 }
 
@@ -374,6 +436,40 @@ impl WideBvh {
             .map(|_| inv)
     }
 
+    /// The traversal number of a child slot: its node's index for a node,
+    /// `nodes.len()` plus its first primitive slot for a leaf (unique, as
+    /// leaves own disjoint slots; [`crate::Layout::index`] makes it dense).
+    #[inline(always)]
+    fn slot_number(&self, child: u32, count: u32) -> u32 {
+        if count > 0 {
+            self.nodes.len() as u32 + child
+        } else {
+            child
+        }
+    }
+
+    /// Records (when `C` records) the root as skipped: the ray misses it.
+    #[inline(always)]
+    fn skip_root<C: Counters>(&self, counters: &mut C) {
+        if C::RECORDS && !self.nodes.is_empty() {
+            skip_node(counters, 0);
+        }
+    }
+
+    /// Records (when `C` records) the children of `n` whose box test
+    /// failed: the valid slots not in `entered`.
+    #[inline(always)]
+    fn skip_missed<C: Counters>(&self, counters: &mut C, n: &Node8, entered: u32) {
+        if C::RECORDS {
+            let mut missed = n.valid() & !entered;
+            while missed != 0 {
+                let lane = missed.trailing_zeros() as usize;
+                missed &= missed - 1;
+                skip_node(counters, self.slot_number(n.child[lane], n.count[lane]));
+            }
+        }
+    }
+
     /// Starts loading child `lane` of `n`: its node, or through
     /// `prefetch_leaf` its first primitives.
     #[inline(always)]
@@ -396,6 +492,7 @@ impl WideBvh {
         P: Fn(usize),
     {
         let Some(inv) = self.entered(&ray) else {
+            self.skip_root(counters);
             return;
         };
         if needs_slow_path(&ray, inv) {
@@ -422,6 +519,7 @@ impl WideBvh {
         P: Fn(usize),
     {
         let Some(inv) = self.entered(ray) else {
+            self.skip_root(counters);
             return false;
         };
         if needs_slow_path(ray, inv) {
@@ -453,13 +551,14 @@ impl WideBvh {
         // shrunk `tmax`.
         let mut cull = widen_up(ray.tmax);
         loop {
-            counters.node();
+            count_node(counters, self.slot_number(child, count));
             if count > 0 {
                 leaf(child as usize, count as usize, &mut ray, counters);
                 cull = widen_up(ray.tmax);
             } else {
                 let n = &self.nodes[child as usize];
                 let (tnear, bits) = lanes.hit::<NAN_SAFE>(n, cull);
+                self.skip_missed(counters, n, bits);
                 if bits.is_power_of_two() {
                     // One child entered (the common case deep in the tree):
                     // go there without touching the stack.
@@ -505,6 +604,8 @@ impl WideBvh {
                     (child, count) = (c, k);
                     break;
                 }
+                // Entered when pushed, but beyond the closest hit by now.
+                skip_node(counters, self.slot_number(c, k));
             }
         }
     }
@@ -529,7 +630,7 @@ impl WideBvh {
         let mut stack = Stack::<(u32, u32)>::new();
         let (mut child, mut count) = (0u32, 0u32);
         loop {
-            counters.node();
+            count_node(counters, self.slot_number(child, count));
             if count > 0 {
                 if leaf(child as usize, count as usize, ray, counters) {
                     return true;
@@ -537,6 +638,7 @@ impl WideBvh {
             } else {
                 let n = &self.nodes[child as usize];
                 let (_, mut bits) = lanes.hit::<NAN_SAFE>(n, wide);
+                self.skip_missed(counters, n, bits);
                 if bits.is_power_of_two() {
                     // One child entered: go there without the stack.
                     let lane = bits.trailing_zeros() as usize;

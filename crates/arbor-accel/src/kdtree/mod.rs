@@ -12,7 +12,7 @@ mod build;
 mod traverse;
 
 use crate::util::prepare;
-use crate::{Aabb, Primitives};
+use crate::{Aabb, Layout, LayoutNode, Primitives};
 
 /// Traversal stack entries. The build's depth limit stays below this (a
 /// path pushes at most one entry per level).
@@ -131,6 +131,48 @@ pub struct KdTree {
     unbounded: Vec<u32>,
     max_depth: usize,
     sah_cost: Option<f64>,
+}
+
+impl KdTree {
+    /// The nodes for drawing, numbered as traversal reports them; a node's
+    /// box is its region of space (the tree's box cut by the splits above).
+    pub fn layout(&self) -> Layout {
+        let blank = LayoutNode {
+            bounds: Aabb::EMPTY,
+            depth: 0,
+            children: Vec::new(),
+            primitives: 0,
+            split: None,
+        };
+        let mut nodes = vec![blank; self.nodes.len()];
+        let mut todo = if self.nodes.is_empty() {
+            vec![]
+        } else {
+            vec![(0usize, self.bounds, 0u32)]
+        };
+        while let Some((i, b, depth)) = todo.pop() {
+            let n = self.nodes[i];
+            let out = &mut nodes[i];
+            (out.bounds, out.depth) = (b, depth);
+            if n.is_leaf() {
+                out.primitives = n.count() as u32;
+                continue;
+            }
+            let (axis, split, c) = (n.axis(), n.split(), n.children());
+            out.split = Some((axis as u8, split));
+            out.children = vec![c, c + 1];
+            let (mut below, mut above) = (b, b);
+            below.max[axis] = split;
+            above.min[axis] = split;
+            todo.push((c as usize, below, depth + 1));
+            todo.push((c as usize + 1, above, depth + 1));
+        }
+        Layout::Tree {
+            nodes,
+            leaf_slots: Vec::new(),
+            leaf_base: 0,
+        }
+    }
 }
 
 impl KdTree {

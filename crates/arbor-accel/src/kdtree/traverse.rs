@@ -3,6 +3,7 @@
 use std::mem::MaybeUninit;
 
 use super::{KdNode, KdTree, STACK_SIZE};
+use crate::counters::{count_node, count_test, skip_node};
 use crate::util::{offer_any, widen_down, widen_up, Mailbox};
 use crate::{AccelStats, Accelerator, Counters, Ray};
 
@@ -86,7 +87,7 @@ impl KdTree {
         let nodes = &self.nodes[..];
         let (mut node, mut ta, mut tb) = (0usize, widen_down(t0), t1);
         loop {
-            counters.node();
+            count_node(counters, node as u32);
             let n = nodes[node];
             if !n.is_leaf() {
                 let axis = n.axis();
@@ -109,6 +110,15 @@ impl KdTree {
                 // only rounding at the root can cause, the far child is
                 // visited needlessly, never wrongly.)
                 let (first, second) = (children + off, children + (off ^ 1));
+                if C::RECORDS {
+                    // A child the ray's interval does not reach is skipped.
+                    // (Without `near` the second child is visited anyway.)
+                    if !near {
+                        skip_node(counters, first);
+                    } else if !far {
+                        skip_node(counters, second);
+                    }
+                }
                 let far_ta = max(ta, lo);
                 stack[sp] = MaybeUninit::new((second, far_ta, tb));
                 sp += usize::from(near & far);
@@ -133,6 +143,7 @@ impl KdTree {
                     (node, ta, tb) = (nd as usize, a, b);
                     break;
                 }
+                skip_node(counters, nd);
             }
         }
     }
@@ -146,7 +157,7 @@ impl Accelerator for KdTree {
     {
         let mut ray = *ray;
         for &p in &self.unbounded {
-            counters.test();
+            count_test(counters, p);
             if let Some(t) = hit(p, &ray) {
                 ray.tmax = ray.tmax.min(t);
             }
@@ -159,7 +170,7 @@ impl Accelerator for KdTree {
         self.walk(&mut ray, counters, |prims, ray, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
-                    counters.test();
+                    count_test(counters, p);
                     if let Some(t) = hit(p, ray) {
                         ray.tmax = ray.tmax.min(t);
                     }
@@ -183,7 +194,7 @@ impl Accelerator for KdTree {
         self.walk(&mut walk_ray, counters, |prims, r, counters| {
             for &p in prims {
                 if mailbox.insert(p) {
-                    counters.test();
+                    count_test(counters, p);
                     if hit(p, r) {
                         found = true;
                         return true;

@@ -1,0 +1,215 @@
+//! The `structures` section: each structure's nodes (or cells) for
+//! drawing, its statistics and its cost heatmap.
+//!
+//! A tree's nodes are numbered for the page in breadth-first order, so
+//! that the nodes down to any depth are a prefix of the list: the page's
+//! list stops at a depth that keeps it small (`left_out` counts the rest),
+//! with `null` in place of a deeper node unless a pick visits it.
+
+use std::collections::HashSet;
+
+use arbor::scene::Scene;
+use arbor::tracer::Tracer;
+use arbor_accel::{AccelKind, Accelerator, Layout, LayoutNode, RayCounts};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+
+use super::base64;
+use super::traversal::{box_json, first_camera_ray};
+
+/// Most tree nodes drawn per structure, whole levels at a time (nodes a
+/// pick visits come on top).
+const MAX_DRAWN_NODES: usize = 2000;
+
+/// Most occupied grid cells listed.
+const MAX_LISTED_CELLS: usize = 200_000;
+
+/// One structure built over the scene, with its layout and page numbering.
+pub struct View {
+    /// Which structure.
+    pub kind: AccelKind,
+    /// The tracer built with it (both levels).
+    pub tracer: Tracer,
+    /// The top level's shape.
+    pub layout: Layout,
+    /// Page number of each layout index (trees: breadth-first order).
+    page_number: Vec<u32>,
+    /// Layout index of each page number.
+    layout_index: Vec<u32>,
+}
+
+impl View {
+    /// The view of `tracer`, built with `kind`.
+    pub fn new(kind: AccelKind, tracer: Tracer) -> View {
+        let layout = tracer.accel().layout();
+        let layout_index = match &layout {
+            Layout::Tree { nodes, .. } => breadth_first(nodes),
+            _ => Vec::new(),
+        };
+        let mut page_number = vec![0; layout_index.len()];
+        for (page, &index) in layout_index.iter().enumerate() {
+            page_number[index as usize] = page as u32;
+        }
+        View {
+            kind,
+            tracer,
+            layout,
+            page_number,
+            layout_index,
+        }
+    }
+
+    /// The page's number of layout index `index` (a grid cell keeps its
+    /// index).
+    pub fn number(&self, index: u32) -> u32 {
+        self.page_number
+            .get(index as usize)
+            .copied()
+            .unwrap_or(index)
+    }
+}
+
+/// Node indices in breadth-first order from the root.
+fn breadth_first(nodes: &[LayoutNode]) -> Vec<u32> {
+    let mut order = Vec::with_capacity(nodes.len());
+    if !nodes.is_empty() {
+        order.push(0u32);
+    }
+    let mut i = 0;
+    while i < order.len() {
+        order.extend_from_slice(&nodes[order[i] as usize].children);
+        i += 1;
+    }
+    order
+}
+
+/// The family a structure is drawn as.
+fn family(kind: AccelKind) -> &'static str {
+    match kind {
+        AccelKind::List => "list",
+        AccelKind::Grid => "grid",
+        AccelKind::KdTree => "kdtree",
+        _ => "bvh",
+    }
+}
+
+/// The structure object of `view`; `named` are the page numbers of nodes
+/// that picks visit (always included); `heatmap` is its heatmap object.
+pub fn structure_json(
+    view: &View,
+    named: &HashSet<u32>,
+    heatmap: Value,
+    notes: &mut Vec<String>,
+) -> Value {
+    let s = view.tracer.accel().stats();
+    let mut o = json!({
+        "accel": view.kind.name(),
+        "family": family(view.kind),
+        "stats": { "nodes": s.nodes, "leaves": s.leaves, "max_depth": s.max_depth,
+                   "memory_bytes": s.memory_bytes },
+        "heatmap": heatmap,
+    });
+    let name = view.kind.name();
+    match &view.layout {
+        Layout::List => {
+            o["nodes"] = json!([]);
+            o["left_out"] = json!(0);
+        }
+        Layout::Tree { nodes, .. } => {
+            // Whole levels while they fit.
+            let mut depth_cut = 0;
+            let mut count = 0;
+            for &i in &view.layout_index {
+                let d = nodes[i as usize].depth;
+                if d > depth_cut {
+                    if count >= MAX_DRAWN_NODES {
+                        break;
+                    }
+                    depth_cut = d;
+                }
+                count += 1;
+            }
+            let drawn = |page: usize| {
+                let n = &nodes[view.layout_index[page] as usize];
+                n.depth <= depth_cut || named.contains(&(page as u32))
+            };
+            let last = (0..view.layout_index.len()).rev().find(|&p| drawn(p));
+            let list: Vec<Value> = (0..last.map_or(0, |l| l + 1))
+                .map(|page| match drawn(page) {
+                    true => node_json(view, &nodes[view.layout_index[page] as usize]),
+                    false => Value::Null,
+                })
+                .collect();
+            let kept = list.iter().filter(|v| !v.is_null()).count();
+            let left_out = nodes.len() - kept;
+            if left_out > 0 {
+                notes.push(format!(
+                    "{name}: {kept} of {} nodes drawn (down to depth {depth_cut}, and every node a pick visits)",
+                    nodes.len()
+                ));
+            }
+            o["nodes"] = json!(list);
+            o["depth_drawn"] = json!(depth_cut);
+            o["left_out"] = json!(left_out);
+        }
+        Layout::Grid(g) => {
+            let listed = g.occupied.len().min(MAX_LISTED_CELLS);
+            if listed < g.occupied.len() {
+                notes.push(format!(
+                    "{name}: {listed} of {} occupied cells listed",
+                    g.occupied.len()
+                ));
+            }
+            o["origin"] = json!(g.bounds.min.to_array());
+            o["cell_size"] = json!(g.cell_size().to_array());
+            o["resolution"] = json!(g.resolution);
+            o["occupied"] = json!(g.occupied[..listed]);
+            o["left_out"] = json!(g.occupied.len() - listed);
+        }
+    }
+    o
+}
+
+/// One tree node for the page.
+fn node_json(view: &View, n: &LayoutNode) -> Value {
+    let children: Vec<u32> = n.children.iter().map(|&c| view.number(c)).collect();
+    let mut o = json!({
+        "box": box_json(&n.bounds), "depth": n.depth,
+        "children": children, "primitives": n.primitives,
+    });
+    if view.kind == AccelKind::KdTree {
+        o["axis"] = n.split.map_or(Value::Null, |(a, _)| json!(a));
+        o["split"] = n.split.map_or(Value::Null, |(_, s)| json!(s));
+    }
+    o
+}
+
+/// The heatmap object: nodes and tests of every pixel's first camera ray
+/// (both levels, as `--heatmap` counts them), row by row from the top.
+pub fn heatmap_json(scene: &Scene, view: &View, progress: &(dyn Fn(u64) + Sync)) -> Value {
+    let (w, h) = (scene.width, scene.height);
+    let counts: Vec<RayCounts> = (0..h)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let row: Vec<RayCounts> = (0..w)
+                .map(|x| {
+                    let (o, d, tmin) = first_camera_ray(scene, x, y);
+                    let mut c = RayCounts::default();
+                    view.tracer
+                        .closest_counted(o, d, tmin, f64::INFINITY, &mut c);
+                    c
+                })
+                .collect();
+            progress(u64::from(w));
+            row
+        })
+        .collect();
+    let nodes: Vec<u32> = counts.iter().map(|c| c.nodes as u32).collect();
+    let tests: Vec<u32> = counts.iter().map(|c| c.tests as u32).collect();
+    json!({
+        "nodes_base64": base64::encode_u32(&nodes),
+        "tests_base64": base64::encode_u32(&tests),
+        "max_nodes": nodes.iter().max().copied().unwrap_or(0),
+        "max_tests": tests.iter().max().copied().unwrap_or(0),
+    })
+}
