@@ -254,9 +254,11 @@ def test_step_controls_walk_the_traversal(browser, pages, screenshots, name):
             str(entered), str(skipped), str(tested))
         if k:
             assert "now" in rows[k - 1].get_attribute("class")
-            assert canvas_print(d) != at_start
         d.find_element(By.ID, "step-last").click()
         assert view.get_attribute("data-step") == str(total)
+        # The first steps may lie outside the view (a root box around a
+        # big floor); the whole walk, with the hit, may not.
+        assert total == 0 or canvas_print(d) != at_start, s["accel"]
         d.find_element(By.ID, "step-prev").click()
         assert view.get_attribute("data-step") == str(max(total - 1, 0))
     d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-step.png"))

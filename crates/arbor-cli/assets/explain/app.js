@@ -247,8 +247,8 @@ function stepsOf(accel) {
 
 function placementSteps(entry, k) {
   const at = { placement: entry.placement, entry: k };
-  return entry.visits.map((v) => ({ kind: 'visit', node: v.node, entered: v.entered, ...at }))
-    .concat(entry.tests.map((p) => ({ kind: 'test', prim: p, ...at })));
+  return [{ kind: 'enter', ...at }].concat(entry.visits.map((v) => ({ kind: 'visit', node: v.node, entered: v.entered, ...at }))
+    .concat(entry.tests.map((p) => ({ kind: 'test', prim: p, ...at }))));
 }
 
 function topLevelSteps(r, s) {
@@ -353,7 +353,13 @@ function fillList() {
     let row;
     const inner = step.placement !== undefined;
     const where = inner ? `placement ${step.placement} · ` : '';
-    if (step.kind === 'visit') {
+    if (step.kind === 'enter') {
+      row = el('tr', {},
+        el('td', { text: String(i + 1) }),
+        el('td', {}, el('span', { class: 'kind enter', text: 'inside' })),
+        el('td', { text: `placement ${step.placement}` }),
+        el('td', { text: 'the ray goes into this placement of shared geometry: its own structure, in the geometry\'s own space' }));
+    } else if (step.kind === 'visit') {
       const box = visitBox(s, step.node, step.placement);
       row = el('tr', { 'data-node': String(step.node), 'data-entered': String(step.entered) },
         el('td', { text: String(i + 1) }),
@@ -406,7 +412,9 @@ function showStep(k) {
   let text;
   if (!state.pick) text = 'Pick a pixel to follow its ray.';
   else if (!step) text = `Step 0: the ray of pixel (${state.pick.pixel.join(', ')}) has not met ${state.accel} yet. Press Step to walk it.` + order;
-  else if (step.placement !== undefined) {
+  else if (step.kind === 'enter') {
+    text = `Step ${state.step}: the ray goes into placement ${step.placement} of shared geometry, moved into the geometry's own space; its own structure's traversal follows.`;
+  } else if (step.placement !== undefined) {
     text = step.kind === 'visit'
       ? `Step ${state.step}: inside placement ${step.placement}, the ray ${step.entered ? 'enters' : 'skips'} node ${step.node} of the shared geometry's own structure (not drawn: it is in the geometry's own space).`
       : `Step ${state.step}: inside placement ${step.placement}, the shared geometry's primitive ${step.prim} is tested.`;
