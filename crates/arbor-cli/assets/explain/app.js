@@ -481,7 +481,11 @@ function resetView() {
   if (c && c.eye) {
     camera.position.set(...c.eye);
     camera.up.set(...(c.up || [0, 1, 0]));
-    const target = new THREE.Vector3(...(c.target || center.toArray()));
+    // The orbit turns about the point of the view line nearest the scene's
+    // centre (a scene's own target may be only a unit in front of the eye).
+    const look = new THREE.Vector3(...(c.target || center.toArray())).sub(camera.position).normalize();
+    const along = Math.max(center.clone().sub(camera.position).dot(look), sceneSize / 100);
+    const target = camera.position.clone().add(look.multiplyScalar(along));
     // Seen from the scene's own camera the boxes stand behind one another;
     // stepping back and aside a little shows their depth.
     const back = camera.position.clone().sub(target);
