@@ -46,6 +46,17 @@ def load(browser, path):
     return d
 
 
+def opened(browser, pages, name):
+    """The page for input `name`, loaded (and checked as `load` does), with
+    its embedded document."""
+    path = pages.get(name)
+    return load(browser, path), page_data(path)
+
+
+def shot(d, element_id, path):
+    d.find_element(By.ID, element_id).screenshot(str(path))
+
+
 def canvas_print(d):
     """What the 3D view shows now, as a PNG data URL."""
     return d.execute_script("return document.getElementById('view3d-canvas').toDataURL()")
@@ -120,9 +131,7 @@ def test_network_and_console_checks_see_what_they_look_for(browser, tmp_path):
 
 @pytest.mark.parametrize("name", INPUT_NAMES)
 def test_page_loads_from_disk_offline_and_draws(browser, pages, screenshots, name):
-    path = pages.get(name)
-    d = load(browser, path)
-    data = page_data(path)
+    d, data = opened(browser, pages, name)
     # The picture, the 3D view and the scene graph are drawn.
     assert painted_fraction(d, "picture", [0, 0, 0]) > 0.05
     assert painted_fraction(d, "view3d-canvas", [0x1d, 0x22, 0x30]) > 0.01
@@ -136,16 +145,14 @@ def test_page_loads_from_disk_offline_and_draws(browser, pages, screenshots, nam
     for line in data["notes"]:
         assert line in notes
     d.save_screenshot(str(screenshots / f"{name}-page.png"))
-    d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-3d.png"))
-    d.find_element(By.ID, "traversal-panel").screenshot(str(screenshots / f"{name}-traversal.png"))
-    d.find_element(By.ID, "graph-panel").screenshot(str(screenshots / f"{name}-scene-graph.png"))
+    shot(d, "view3d-panel", screenshots / f"{name}-3d.png")
+    shot(d, "traversal-panel", screenshots / f"{name}-traversal.png")
+    shot(d, "graph-panel", screenshots / f"{name}-scene-graph.png")
 
 
 @pytest.mark.parametrize("name", INPUT_NAMES)
 def test_picked_traversal_equals_the_json_output(browser, pages, tmp_path, name):
-    path = pages.get(name)
-    d = load(browser, path)
-    data = page_data(path)
+    d, data = opened(browser, pages, name)
     stride = data["picks"]["stride"]
     width, height = data["image"]["width"], data["image"]["height"]
     # Off the picks grid on purpose: the page must snap and say so.
@@ -193,9 +200,8 @@ def first_of_family(data, family):
 
 @pytest.mark.parametrize("name", INPUT_NAMES)
 def test_depth_slider_changes_the_boxes_drawn(browser, pages, screenshots, name):
-    path = pages.get(name)
-    d = load(browser, path)
-    bvh = first_of_family(page_data(path), "bvh")
+    d, data = opened(browser, pages, name)
+    bvh = first_of_family(data, "bvh")
     if bvh is None:
         pytest.fail(f"{name}: the page has no BVH to walk")
     Select(d.find_element(By.ID, "structure")).select_by_value(bvh["accel"])
@@ -218,19 +224,17 @@ def test_depth_slider_changes_the_boxes_drawn(browser, pages, screenshots, name)
     one_view = canvas_print(d)
     d.find_element(By.ID, "side-by-side").click()
     labels = [e.text.split(" ")[0] for e in d.find_elements(By.CSS_SELECTOR, "#view-labels .view-label")]
-    assert labels == [s["accel"] for s in page_data(path)["structures"]]
+    assert labels == [s["accel"] for s in data["structures"]]
     assert canvas_print(d) != one_view
-    d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-side-by-side.png"))
+    shot(d, "view3d-panel", screenshots / f"{name}-side-by-side.png")
     d.find_element(By.ID, "side-by-side").click()
     assert len(d.find_elements(By.CSS_SELECTOR, "#view-labels .view-label")) == 1
-    d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-{bvh['accel']}-depth{target}.png"))
+    shot(d, "view3d-panel", screenshots / f"{name}-{bvh['accel']}-depth{target}.png")
 
 
 @pytest.mark.parametrize("name", INPUT_NAMES)
 def test_step_controls_walk_the_traversal(browser, pages, screenshots, name):
-    path = pages.get(name)
-    d = load(browser, path)
-    data = page_data(path)
+    d, data = opened(browser, pages, name)
     pick(d, data["image"]["width"] // 2, data["image"]["height"] // 2)
     view = d.find_element(By.ID, "view3d")
     for s in data["structures"]:
@@ -261,14 +265,12 @@ def test_step_controls_walk_the_traversal(browser, pages, screenshots, name):
         assert total == 0 or canvas_print(d) != at_start, s["accel"]
         d.find_element(By.ID, "step-prev").click()
         assert view.get_attribute("data-step") == str(max(total - 1, 0))
-    d.find_element(By.ID, "view3d-panel").screenshot(str(screenshots / f"{name}-step.png"))
+    shot(d, "view3d-panel", screenshots / f"{name}-step.png")
 
 
 @pytest.mark.parametrize("name", INPUT_NAMES)
 def test_heatmap_switch_and_legend(browser, pages, screenshots, name):
-    path = pages.get(name)
-    d = load(browser, path)
-    data = page_data(path)
+    d, data = opened(browser, pages, name)
     legend = d.find_element(By.ID, "heatmap-legend")
     assert not legend.is_displayed()
     picture = d.find_element(By.ID, "picture")
@@ -286,7 +288,7 @@ def test_heatmap_switch_and_legend(browser, pages, screenshots, name):
             assert d.find_element(By.ID, "heatmap-max").text == str(s["heatmap"][f"max_{measure}"])
             seen.add(d.execute_script("return arguments[0].toDataURL()", picture))
     assert before not in seen
-    legend.find_element(By.XPATH, "..").screenshot(str(screenshots / f"{name}-heatmap.png"))
+    shot(d, "picture-panel", screenshots / f"{name}-heatmap.png")
     d.find_element(By.ID, "mode-picture").click()
     assert picture.get_attribute("data-shows") == "picture"
     assert not legend.is_displayed()
@@ -296,9 +298,8 @@ def test_heatmap_switch_and_legend(browser, pages, screenshots, name):
 def test_scene_graph_draws_a_shared_definition_once(browser, pages):
     # The classroom defines one desk-and-chair assembly and places it twelve
     # times: one box in the diagram with several arrows in.
-    path = pages.get("classroom")
-    d = load(browser, path)
-    graph = page_data(path)["scene_graph"]
+    d, data = opened(browser, pages, "classroom")
+    graph = data["scene_graph"]
     parents = {}
     for n in graph["nodes"]:
         for c in n["children"]:
