@@ -251,15 +251,28 @@ fn pages_of_a_cornell_scene_and_the_classroom_have_every_section() {
             ]
         );
         for st in structures {
-            // u32 per pixel, base64: 4 characters per 3 bytes.
-            let b64 = st["heatmap"]["nodes_base64"].as_str().unwrap();
+            // One element per pixel, the narrowest that holds the largest
+            // count; base64: 4 characters per 3 bytes.
+            let heat = &st["heatmap"];
+            let largest = heat["max_nodes"].as_u64().max(heat["max_tests"].as_u64());
+            let size: usize = match heat["element"].as_str().unwrap() {
+                "u8" => 1,
+                "u16" => 2,
+                "u32" => 4,
+                other => panic!("element {other}"),
+            };
+            assert!(largest.unwrap() < 1 << (8 * size), "{}", st["accel"]);
+            if size > 1 {
+                assert!(largest.unwrap() >= 1 << (4 * size), "{}", st["accel"]);
+            }
+            let b64 = heat["nodes_base64"].as_str().unwrap();
             assert_eq!(
                 b64.len(),
-                (64 * 36 * 4usize).div_ceil(3) * 4,
+                (64 * 36 * size).div_ceil(3) * 4,
                 "{}",
                 st["accel"]
             );
-            assert!(st["heatmap"]["max_nodes"].as_u64().unwrap() > 0);
+            assert!(heat["max_nodes"].as_u64().unwrap() > 0);
         }
         assert!(d["scene_graph"]["nodes"].as_array().unwrap().len() > 1);
         let prims = &d["primitives"];

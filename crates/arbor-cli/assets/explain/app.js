@@ -74,10 +74,14 @@ const pictureCtx = picture.getContext('2d');
 const pictureImage = new Image();
 const heatmapCache = new Map();
 
-function decodeU32(b64) {
+// Counts per pixel, little-endian elements of the type the data names
+// (u8, u16 or u32: the narrowest that holds the largest count).
+function decodeCounts(b64, element) {
   const bin = atob(b64);
   const bytes = new Uint8Array(bin.length);
   for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+  if (element === 'u8') return bytes;
+  if (element === 'u16') return new Uint16Array(bytes.buffer, 0, Math.floor(bytes.length / 2));
   return new Uint32Array(bytes.buffer, 0, Math.floor(bytes.length / 4));
 }
 
@@ -96,7 +100,7 @@ function heatmapImage(accel, measure) {
   const s = structureByAccel(accel);
   const h = s && s.heatmap;
   if (!h) return null;
-  const values = decodeU32(measure === 'nodes' ? h.nodes_base64 : h.tests_base64);
+  const values = decodeCounts(measure === 'nodes' ? h.nodes_base64 : h.tests_base64, h.element);
   const max = (measure === 'nodes' ? h.max_nodes : h.max_tests) || 1;
   const img = new ImageData(image.width, image.height);
   for (let i = 0; i < values.length && i < image.width * image.height; i++) {

@@ -235,10 +235,14 @@ pub fn heatmap_json(scene: &Scene, view: &View, progress: &(dyn Fn(u64) + Sync))
         .collect();
     let nodes: Vec<u32> = counts.iter().map(|c| c.nodes as u32).collect();
     let tests: Vec<u32> = counts.iter().map(|c| c.tests as u32).collect();
+    let max_nodes = nodes.iter().max().copied().unwrap_or(0);
+    let max_tests = tests.iter().max().copied().unwrap_or(0);
+    let (element, size) = base64::element_for(max_nodes.max(max_tests));
     json!({
-        "nodes_base64": base64::encode_u32(&nodes),
-        "tests_base64": base64::encode_u32(&tests),
-        "max_nodes": nodes.iter().max().copied().unwrap_or(0),
-        "max_tests": tests.iter().max().copied().unwrap_or(0),
+        "element": element,
+        "nodes_base64": base64::encode_narrow(&nodes, size),
+        "tests_base64": base64::encode_narrow(&tests, size),
+        "max_nodes": max_nodes,
+        "max_tests": max_tests,
     })
 }
