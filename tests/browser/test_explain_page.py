@@ -309,3 +309,22 @@ def test_scene_graph_draws_a_shared_definition_once(browser, pages):
     for i in shared:
         assert len(d.find_elements(By.CSS_SELECTOR, f'#graph-svg g[data-id="{i}"]')) == 1
         assert len(d.find_elements(By.CSS_SELECTOR, f'#graph-svg path[data-to="{i}"]')) == parents[i]
+
+
+def test_bounding_volumes_are_offered_and_drawn_with_bvol(browser, pages, screenshots):
+    # Without --bvol the checkbox is greyed out; with it, ticking it draws
+    # the volumes (gold lines) over the 3D view.
+    d, data = opened(browser, pages, "cornell-wire-box")
+    assert data["bounding_volumes"] == []
+    assert not d.find_element(By.ID, "show-bvols").is_enabled()
+    d, data = opened(browser, pages, "cornell-two-boxes-obb")
+    assert data["bounding_volumes"], "no volumes in a --bvol page"
+    box = d.find_element(By.ID, "show-bvols")
+    assert box.is_enabled()
+    for id_ in ("show-primitives", "show-structure"):
+        if d.find_element(By.ID, id_).is_selected():
+            d.find_element(By.ID, id_).click()
+    before = canvas_print(d)
+    box.click()
+    assert canvas_print(d) != before, "ticking bounding volumes drew nothing"
+    shot(d, "view3d-panel", screenshots / "cornell-two-boxes-obb-3d.png")

@@ -438,3 +438,105 @@ fn errors_exit_2_with_one_clear_line() {
         "nothing written"
     );
 }
+
+/// The points the page draws for each top-level primitive number: triangle
+/// corners, a sphere's extreme points, a box's corners.
+fn drawn_points(prims: &Value) -> std::collections::HashMap<u64, Vec<[f64; 3]>> {
+    let f = |v: &Value| v.as_f64().unwrap();
+    let mut points: std::collections::HashMap<u64, Vec<[f64; 3]>> = Default::default();
+    let tris = prims["triangles"].as_array().unwrap();
+    for (i, id) in prims["triangle_ids"].as_array().unwrap().iter().enumerate() {
+        let corners = tris[9 * i..9 * i + 9]
+            .chunks(3)
+            .map(|c| [f(&c[0]), f(&c[1]), f(&c[2])]);
+        points
+            .entry(id.as_u64().unwrap())
+            .or_default()
+            .extend(corners);
+    }
+    for sph in prims["spheres"].as_array().unwrap() {
+        let c = [f(&sph[0]), f(&sph[1]), f(&sph[2])];
+        let r = f(&sph[3]);
+        let entry = points.entry(sph[4].as_u64().unwrap()).or_default();
+        for axis in 0..3 {
+            for sign in [-1.0, 1.0] {
+                let mut p = c;
+                p[axis] += sign * r;
+                entry.push(p);
+            }
+        }
+    }
+    for other in prims["other"].as_array().unwrap() {
+        let b = &other["box"];
+        let entry = points
+            .entry(other["primitive"].as_u64().unwrap())
+            .or_default();
+        for corner in 0..8 {
+            let pick = |axis: usize| f(&b[(corner >> axis) & 1][axis]);
+            entry.push([pick(0), pick(1), pick(2)]);
+        }
+    }
+    points
+}
+
+/// Whether `p` lies in bounding volume `v` (to float rounding).
+fn volume_contains(v: &Value, p: [f64; 3]) -> bool {
+    let f = |v: &Value| v.as_f64().unwrap();
+    let vec = |v: &Value| [f(&v[0]), f(&v[1]), f(&v[2])];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let eps = 1e-4 * (1.0 + dot(p, p).sqrt());
+    match v["kind"].as_str().unwrap() {
+        "aabb" => {
+            let (lo, hi) = (vec(&v["box"][0]), vec(&v["box"][1]));
+            (0..3).all(|k| lo[k] - eps <= p[k] && p[k] <= hi[k] + eps)
+        }
+        "sphere" => {
+            let c = vec(&v["center"]);
+            let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            dot(d, d).sqrt() <= f(&v["radius"]) + eps
+        }
+        "obb" => {
+            let c = vec(&v["center"]);
+            let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+            let half = vec(&v["half"]);
+            (0..3).all(|k| dot(d, vec(&v["axes"][k])).abs() <= half[k] + eps)
+        }
+        other => panic!("unknown kind {other}"),
+    }
+}
+
+/// With `--bvol`, the page holds the volumes the tracer tests, one per
+/// object, of the kind asked for, each around everything drawn of its
+/// object; without it, none.
+#[test]
+fn bounding_volumes_of_bvol_wrap_their_objects() {
+    let dir = temp();
+    let page = dir.path().join("p.html");
+    let Some(scene) = cornell() else { return };
+    let run = |extra: &[&str]| {
+        let mut args = vec!["explain", s(&scene), "--quiet", "--size", "40x30"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", s(&page)]);
+        ok(&args);
+        page_data(&page)
+    };
+    assert_eq!(run(&[])["bounding_volumes"], serde_json::json!([]));
+    for kind in ["sphere", "aabb", "obb"] {
+        let d = run(&["--bvol", kind]);
+        let volumes = d["bounding_volumes"].as_array().unwrap();
+        assert!(!volumes.is_empty(), "{kind}");
+        let points = drawn_points(&d["primitives"]);
+        let mut checked = 0;
+        for v in volumes {
+            // An OBB falls back to a box when its points give no axes.
+            let k = v["kind"].as_str().unwrap();
+            assert!(k == kind || (kind == "obb" && k == "aabb"), "{kind}: {v}");
+            let surface = v["surface"].as_u64().unwrap();
+            for &p in points.get(&surface).map_or(&[][..], Vec::as_slice) {
+                assert!(volume_contains(v, p), "{kind}: {p:?} outside {v}");
+                checked += 1;
+            }
+        }
+        assert!(checked > 0, "{kind}: no drawn point belongs to a volume");
+    }
+}

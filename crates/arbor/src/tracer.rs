@@ -266,32 +266,39 @@ impl std::str::FromStr for BoundingVolumeKind {
     }
 }
 
-/// A fitted bounding volume; its tests are conservative (`arbor-accel`).
-enum Volume {
+/// A bounding volume fitted around one object of `--bvol`, in world space;
+/// its tests are conservative (`arbor-accel`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FittedVolume {
+    /// A bounding sphere.
     Sphere(BoundingSphere),
+    /// An axis-aligned box.
     Aabb(Aabb),
+    /// An oriented box (an axis-aligned one when the points give no axes).
     Obb(Obb),
 }
 
-impl Volume {
-    fn fit(kind: BoundingVolumeKind, boxes: &[Aabb]) -> Volume {
+impl FittedVolume {
+    fn fit(kind: BoundingVolumeKind, boxes: &[Aabb]) -> FittedVolume {
         let all = boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b));
         let corners = || boxes.iter().flat_map(|b| b.corners()).collect::<Vec<_>>();
         match kind {
-            BoundingVolumeKind::Aabb => Volume::Aabb(all),
-            BoundingVolumeKind::Sphere => Volume::Sphere(BoundingSphere::from_points(&corners())),
+            BoundingVolumeKind::Aabb => FittedVolume::Aabb(all),
+            BoundingVolumeKind::Sphere => {
+                FittedVolume::Sphere(BoundingSphere::from_points(&corners()))
+            }
             BoundingVolumeKind::Obb => match Obb::from_points(&corners()) {
-                Some(obb) => Volume::Obb(obb),
-                None => Volume::Aabb(all),
+                Some(obb) => FittedVolume::Obb(obb),
+                None => FittedVolume::Aabb(all),
             },
         }
     }
 
     fn hit(&self, ray: &Ray) -> bool {
         match self {
-            Volume::Sphere(s) => s.intersect(ray).is_some(),
-            Volume::Aabb(b) => b.intersect(ray, ray.inv_dir()).is_some(),
-            Volume::Obb(o) => o.intersect(ray).is_some(),
+            FittedVolume::Sphere(s) => s.intersect(ray).is_some(),
+            FittedVolume::Aabb(b) => b.intersect(ray, ray.inv_dir()).is_some(),
+            FittedVolume::Obb(o) => o.intersect(ray).is_some(),
         }
     }
 }
@@ -318,7 +325,7 @@ pub struct Tracer {
     kind: AccelKind,
     /// Per placement, the bounding volume that gates it (`--bvol`); empty
     /// when there are none.
-    volumes: Vec<Option<Volume>>,
+    volumes: Vec<Option<FittedVolume>>,
     volume_stats: VolumeStats,
 }
 
@@ -347,7 +354,8 @@ impl Tracer {
     ) -> Tracer {
         let objects = flat.objects.clone();
         let mut tracer = Tracer::from_flattened(flat, kind);
-        let mut volumes: Vec<Option<Volume>> = (0..tracer.placements.len()).map(|_| None).collect();
+        let mut volumes: Vec<Option<FittedVolume>> =
+            (0..tracer.placements.len()).map(|_| None).collect();
         for o in objects {
             let level = &tracer.shared[tracer.placements[o as usize].geometry as usize];
             // Objects are placed by the identity: their boxes are world boxes.
@@ -357,10 +365,20 @@ impl Tracer {
                     to_f32_box(a, b, tracer.frame.pad)
                 })
                 .collect();
-            volumes[o as usize] = Some(Volume::fit(volume, &boxes));
+            volumes[o as usize] = Some(FittedVolume::fit(volume, &boxes));
         }
         tracer.volumes = volumes;
         tracer
+    }
+
+    /// The bounding volumes of `--bvol`, each with the placement it gates
+    /// (its top-level primitive is the world's primitive count plus the
+    /// placement); none without `--bvol`.
+    pub fn bounding_volumes(&self) -> impl Iterator<Item = (usize, &FittedVolume)> {
+        self.volumes
+            .iter()
+            .enumerate()
+            .filter_map(|(p, v)| v.as_ref().map(|v| (p, v)))
     }
 
     /// What the bounding volumes did so far (all zero without `--bvol`).
