@@ -196,13 +196,16 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
 /// in cache.
 pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
     let n = views.len();
+    // Zeros come from the allocator as untouched pages (no serial fill):
+    // each entry, hit or miss, is then written once by the thread that
+    // traced its ray.
     let mut c = HitColumns {
-        t: vec![f32::INFINITY; n],
-        triangle: vec![-1; n],
-        u: vec![f32::NAN; n],
-        v: vec![f32::NAN; n],
-        point: vec![[f32::NAN; 3]; n],
-        normal: vec![[f32::NAN; 3]; n],
+        t: vec![0.0; n],
+        triangle: vec![0; n],
+        u: vec![0.0; n],
+        v: vec![0.0; n],
+        point: vec![[0.0; 3]; n],
+        normal: vec![[0.0; 3]; n],
     };
     (
         c.t.par_chunks_mut(CHUNK),
@@ -222,14 +225,24 @@ pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
                 hits.resize(rays.len(), None);
                 mesh.closest_batch_into(rays, hits);
                 for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
-                    if let Some(h) = hit {
-                        t[i] = h.hit.t;
-                        triangle[i] = i64::from(h.prim);
-                        u[i] = h.hit.u;
-                        v[i] = h.hit.v;
-                        point[i] = ray.at(h.hit.t).to_array();
-                        normal[i] = unit_normal(mesh, h.prim);
-                    }
+                    (t[i], triangle[i], u[i], v[i], point[i], normal[i]) = match hit {
+                        Some(h) => (
+                            h.hit.t,
+                            i64::from(h.prim),
+                            h.hit.u,
+                            h.hit.v,
+                            ray.at(h.hit.t).to_array(),
+                            unit_normal(mesh, h.prim),
+                        ),
+                        None => (
+                            f32::INFINITY,
+                            -1,
+                            f32::NAN,
+                            f32::NAN,
+                            [f32::NAN; 3],
+                            [f32::NAN; 3],
+                        ),
+                    };
                 }
             },
         );
