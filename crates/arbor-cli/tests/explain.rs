@@ -20,26 +20,10 @@ fn all_kinds() -> String {
     names.join(",")
 }
 
-/// A Cornell scene from the shared test data (`ARBOR_SHARED`, or `shared/`
-/// beside the project), or `None` (skip) when it is missing, unless
-/// `ARBOR_REQUIRE_TEST_DATA=1`.
+/// A Cornell scene from the shared test data, or `None` (skip) when it is
+/// missing, unless the data is required (`arbor_test_data`).
 fn cornell() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let shared = std::env::var_os("ARBOR_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| root.join("../shared"));
-    let scene = shared.join("scenes/cornell-2015/two-boxes.xml");
-    if scene.exists() {
-        return Some(scene);
-    }
-    assert_ne!(
-        std::env::var("ARBOR_REQUIRE_TEST_DATA").as_deref(),
-        Ok("1"),
-        "missing {}",
-        scene.display()
-    );
-    eprintln!("skipped: {} not found", scene.display());
-    None
+    arbor_test_data::shared("scenes/cornell-2015/two-boxes.xml")
 }
 
 fn temp() -> tempfile::TempDir {
