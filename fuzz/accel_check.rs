@@ -26,7 +26,7 @@ pub fn floats(data: &[u8]) -> Vec<f32> {
 pub fn closest<A: Accelerator>(a: &A, mesh: &TriangleMesh, ray: &Ray) -> Option<(f32, u32)> {
     let mut best: Option<(f32, u32)> = None;
     a.closest(ray, &mut NoCounters, |prim, r| {
-        let hit = mesh.intersect(prim as usize, r)?;
+        let hit = mesh.intersect(prim, r)?;
         if best.is_some_and(|(t, p)| hit.t > t || (hit.t == t && prim > p)) {
             return None;
         }
@@ -93,7 +93,7 @@ pub fn check(data: &[u8]) -> usize {
 /// queries as brute force (`list`) does.
 fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &MeshAccel, ray: &Ray) {
     let expected = closest(list, mesh, ray);
-    let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
+    let test = |p: u32, r: &Ray| mesh.intersect(p, r).is_some();
     let occluded = list.occluded(ray, &mut NoCounters, test);
     for (a, kind) in built.iter().zip(AccelKind::ALL) {
         assert_eq!(closest(a, mesh, ray), expected, "{kind} {ray:?}");
@@ -108,7 +108,7 @@ fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &MeshAc
         "packed {ray:?}"
     );
     if let Some(h) = got {
-        let own = mesh.intersect(h.prim as usize, ray).map(|x| x.t);
+        let own = mesh.intersect(h.prim, ray).map(|x| x.t);
         assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
     }
     assert_eq!(packed.occluded(ray), occluded, "packed");

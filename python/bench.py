@@ -15,7 +15,9 @@ Per query and tool the rate is millions of queries per second, the median
 of --repeat timed calls around the call alone (structures built before,
 outside the timing). `arbor trace` and `arbor nearest` time themselves
 (their JSON line), the rest is timed here. The Python binding's rates are
-compared with `arbor trace`'s on the same rays (its target: within 10 %).
+compared with `arbor trace`'s on the same rays (its target: within 10 %);
+closest hits are timed twice, into fresh arrays and with `out=` into the
+arrays of the call before (as `arbor trace` reuses its hit buffer).
 Open3D runs with `nthreads=--threads`; arbor's binding with
 RAYON_NUM_THREADS=--threads (set here before arbor is imported); embreex
 traces on one thread (its `run` loops over the rays); trimesh's fallback
@@ -70,7 +72,7 @@ def cli_json(cmd):
 class Table:
     """Rates by mesh, (query, rays) and tool, with notes on the answers."""
 
-    TOOLS = ["arbor trace", "arbor (Python)", "Open3D", "embreex", "trimesh"]
+    TOOLS = ["arbor trace", "arbor (Python)", "arbor (Python, out=)", "Open3D", "embreex", "trimesh"]
 
     def __init__(self):
         self.rates, self.notes = {}, []
@@ -171,6 +173,10 @@ def main():
                     cli_tri[rec["tri"] == 0xFFFFFFFF] = -1
                     same = np.array_equal(ours["triangle"], cli_tri) and np.array_equal(ours["t"], rec["t"])
                     table.add(mesh_name, kind, query, "arbor (Python)", k, ms, "same as arbor trace" if same else "DIFFERS from arbor trace")
+                    # Into the arrays of the call before, as `arbor trace` reuses its buffer.
+                    again, ms = median_ms(a.repeat, lambda: mesh.intersect(o, d, tmin, tmax, out=ours))
+                    same = np.array_equal(again["triangle"], cli_tri) and np.array_equal(again["t"], rec["t"])
+                    table.add(mesh_name, kind, query, "arbor (Python, out=)", k, ms, "same as arbor trace" if same else "DIFFERS from arbor trace")
                     tri = ours["triangle"]
                 elif query == "occluded":
                     blocked, ms = median_ms(a.repeat, lambda: mesh.occluded(o, d, tmin, tmax))

@@ -23,9 +23,9 @@ fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
     scene.width = scene.width.min(4);
     scene.height = scene.height.min(4);
     scene.samples_per_side = scene.samples_per_side.min(2);
-    let Ok(flat) = arbor::flatten::Flattened::new(&scene, 10_000) else {
+    let Ok(flat) = arbor::flatten::FlattenedScene::new(&scene, 10_000) else {
         return;
     };
-    let tracer = arbor::tracer::Tracer::from_flattened(flat, arbor_accel::AccelKind::DEFAULT);
+    let tracer = arbor::tracer::Tracer::build(flat, &arbor::tracer::TracerOptions::default());
     let _ = arbor::render::render(&scene, &tracer, &|_| {}, &AtomicBool::new(false));
 });

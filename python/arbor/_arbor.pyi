@@ -26,6 +26,7 @@ class Mesh:
         directions: _Floats,
         tmin: _Scalars | None = None,
         tmax: _Scalars | None = None,
+        out: Dict[str, np.ndarray] | None = None,
     ) -> Dict[str, np.ndarray]: ...
     def occluded(
         self,

@@ -137,6 +137,15 @@ impl Vec3View<'_> {
         }
     }
 
+    /// All elements as one flat slice (row after row), when the array is
+    /// contiguous in NumPy's default layout.
+    pub fn flat(&self) -> Option<Flat<'_>> {
+        match self {
+            Vec3View::F32(a) => a.as_slice().map(Flat::F32),
+            Vec3View::F64(a) => a.as_slice().map(Flat::F64),
+        }
+    }
+
     /// Whether any element is NaN.
     pub fn has_nan(&self) -> bool {
         match self {
@@ -147,8 +156,36 @@ impl Vec3View<'_> {
 
     /// Every row.
     pub fn to_vec(self) -> Vec<Vec3> {
-        (0..self.len()).map(|i| self.get(i)).collect()
+        match self.flat() {
+            Some(Flat::F32(v)) => v
+                .chunks_exact(3)
+                .map(|r| Vec3::new(r[0], r[1], r[2]))
+                .collect(),
+            Some(Flat::F64(v)) => v.chunks_exact(3).map(f64_row).collect(),
+            None => (0..self.len()).map(|i| self.get(i)).collect(),
+        }
     }
+}
+
+/// The elements of a contiguous [`Vec3View`], three to a row.
+#[derive(Clone, Copy)]
+pub enum Flat<'a> {
+    /// float32 elements.
+    F32(&'a [f32]),
+    /// float64 elements.
+    F64(&'a [f64]),
+}
+
+/// A row of float32 values.
+#[inline]
+pub fn f32_row(r: &[f32]) -> Vec3 {
+    Vec3::new(r[0], r[1], r[2])
+}
+
+/// A row of float64 values rounded to float32.
+#[inline]
+pub fn f64_row(r: &[f64]) -> Vec3 {
+    Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32)
 }
 
 /// Reads `(m, 3)` integer faces as triangles; a negative index or one past

@@ -14,7 +14,7 @@ use pyo3::types::PyDict;
 
 use crate::arrays::Vec3Array;
 use crate::points::{closest_columns, max_distances, Points};
-use crate::rays::{rows3, RayArgs};
+use crate::rays::{rows3, HitArrays, RayArgs};
 
 /// A triangle mesh prepared for ray and point queries.
 ///
@@ -126,7 +126,11 @@ impl Mesh {
     /// ``(k, 3)`` float32 ``point`` (the ray's point at ``t``) and
     /// ``normal`` (the unit geometric normal ``(p1 - p0) x (p2 - p0)``);
     /// u, v, point and normal are NaN on a miss.
-    #[pyo3(signature = (origins, directions, tmin = None, tmax = None))]
+    ///
+    /// ``out``: a dict returned by an earlier call for as many rays, whose
+    /// arrays are overwritten with this call's answers and returned (the
+    /// same dict): a loop over batches of rays then allocates nothing.
+    #[pyo3(signature = (origins, directions, tmin = None, tmax = None, out = None))]
     fn intersect<'py>(
         &self,
         py: Python<'py>,
@@ -134,11 +138,22 @@ impl Mesh {
         directions: &Bound<'py, PyAny>,
         tmin: Option<&Bound<'py, PyAny>>,
         tmax: Option<&Bound<'py, PyAny>>,
+        out: Option<Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyDict>> {
         let args = RayArgs::extract(origins, directions, tmin, tmax)?;
         let views = args.views();
-        let found = py.detach(|| crate::rays::closest(&self.accel, views));
-        found.into_dict(py)
+        match out {
+            Some(out) => {
+                let mut arrays = HitArrays::extract(&out, views.len())?;
+                let slots = arrays.slots();
+                py.detach(|| crate::rays::closest_into(&self.accel, views, slots));
+                Ok(out)
+            }
+            None => {
+                let found = py.detach(|| crate::rays::closest(&self.accel, views));
+                found.into_dict(py)
+            }
+        }
     }
 
     /// Whether anything lies on each ray: a ``(k,)`` bool array.

@@ -1,15 +1,20 @@
 //! The ray arguments of the queries (`(k, 3)` origins and directions and
 //! their `tmin`/`tmax`), and hits spread into the columns Python gets.
 
-use arbor_accel::{MeshAccel, MeshHit, Ray};
+use arbor_accel::{MeshAccel, MeshHit, Ray, Vec3};
+use std::mem::MaybeUninit;
+
 use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2};
+use numpy::{
+    IntoPyArray, PyArray, PyArray1, PyArray2, PyArrayMethods, PyReadwriteArray, PyReadwriteArray1,
+    PyReadwriteArray2, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use rayon::prelude::*;
 
-use crate::arrays::{ScalarView, Scalars, Vec3Array, Vec3View};
+use crate::arrays::{f32_row, f64_row, Flat, ScalarView, Scalars, Vec3Array, Vec3View};
 
 /// The four ray arguments of a query, checked to agree in length.
 pub struct RayArgs<'py> {
@@ -102,9 +107,46 @@ impl RayViews<'_> {
 
     /// Chunk `c` of the rays (`CHUNK` of them, fewer at the end), in `rays`.
     fn chunk(&self, c: usize, rays: &mut Vec<Ray>) {
-        let end = ((c + 1) * CHUNK).min(self.len());
+        let range = c * CHUNK..((c + 1) * CHUNK).min(self.len());
         rays.clear();
-        rays.extend((c * CHUNK..end).map(|i| self.ray(i)));
+        // Contiguous arrays (NumPy's default) are read as flat slices in
+        // one pass: element by element through the views, building the
+        // rays cost more than testing them against the root box.
+        match (self.origins.flat(), self.directions.flat()) {
+            (Some(Flat::F32(o)), Some(Flat::F32(d))) => {
+                self.extend(rays, range, o, d, f32_row, f32_row)
+            }
+            (Some(Flat::F32(o)), Some(Flat::F64(d))) => {
+                self.extend(rays, range, o, d, f32_row, f64_row)
+            }
+            (Some(Flat::F64(o)), Some(Flat::F32(d))) => {
+                self.extend(rays, range, o, d, f64_row, f32_row)
+            }
+            (Some(Flat::F64(o)), Some(Flat::F64(d))) => {
+                self.extend(rays, range, o, d, f64_row, f64_row)
+            }
+            _ => rays.extend(range.map(|i| self.ray(i))),
+        }
+    }
+
+    /// Appends the rays `range` from flat origin and direction values.
+    #[inline]
+    fn extend<O, D>(
+        &self,
+        rays: &mut Vec<Ray>,
+        range: std::ops::Range<usize>,
+        origins: &[O],
+        directions: &[D],
+        origin: impl Fn(&[O]) -> Vec3,
+        direction: impl Fn(&[D]) -> Vec3,
+    ) {
+        let flat = 3 * range.start..3 * range.end;
+        let rows = origins[flat.clone()]
+            .chunks_exact(3)
+            .zip(directions[flat].chunks_exact(3));
+        rays.extend(rows.zip(range).map(|((o, d), i)| {
+            Ray::new(origin(o), direction(d), self.tmin.get(i), self.tmax.get(i))
+        }));
     }
 
     /// Every ray, in one array (for the queries whose answers are not one
@@ -155,6 +197,19 @@ impl HitColumns {
         }
     }
 
+    /// Sets every column's length to `n`.
+    ///
+    /// # Safety
+    /// Each column's first `n` slots must have been written.
+    unsafe fn set_len(&mut self, n: usize) {
+        self.t.set_len(n);
+        self.triangle.set_len(n);
+        self.u.set_len(n);
+        self.v.set_len(n);
+        self.point.set_len(n);
+        self.normal.set_len(n);
+    }
+
     /// `ray`'s hit on `mesh`: the point is the ray's at `t`, the normal the
     /// triangle's.
     pub fn push_hit(&mut self, mesh: &MeshAccel, ray: &Ray, hit: &MeshHit) {
@@ -190,30 +245,80 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
         .to_array()
 }
 
-/// The closest hit of every ray, as columns. Each chunk of rays is traced
-/// (the library's batch query, packets for camera rays) and spread into its
-/// part of the columns at once, in parallel, while its triangles are still
-/// in cache.
+/// The closest hit of every ray, as columns in fresh memory.
 pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
     let n = views.len();
-    // Zeros come from the allocator as untouched pages (no serial fill):
-    // each entry, hit or miss, is then written once by the thread that
-    // traced its ray.
+    // Fresh memory, not filled first (on huge pages where the kernel
+    // offers them, see `fresh_column`): `closest_into` writes every entry.
     let mut c = HitColumns {
-        t: vec![0.0; n],
-        triangle: vec![0; n],
-        u: vec![0.0; n],
-        v: vec![0.0; n],
-        point: vec![[0.0; 3]; n],
-        normal: vec![[0.0; 3]; n],
+        t: fresh_column(n),
+        triangle: fresh_column(n),
+        u: fresh_column(n),
+        v: fresh_column(n),
+        point: fresh_column(n),
+        normal: fresh_column(n),
     };
+    closest_into(
+        mesh,
+        views,
+        HitSlots {
+            t: &mut c.t.spare_capacity_mut()[..n],
+            triangle: &mut c.triangle.spare_capacity_mut()[..n],
+            u: &mut c.u.spare_capacity_mut()[..n],
+            v: &mut c.v.spare_capacity_mut()[..n],
+            point: &mut c.point.spare_capacity_mut()[..n],
+            normal: &mut c.normal.spare_capacity_mut()[..n],
+        },
+    );
+    // SAFETY: `closest_into` wrote slots 0..n of every column.
+    unsafe { c.set_len(n) };
+    c
+}
+
+/// Where [`closest_into`] writes: one slot per ray in each column, written
+/// or not yet (fresh memory, or arrays the caller hands back for reuse).
+pub struct HitSlots<'a> {
+    /// Distances.
+    pub t: &'a mut [MaybeUninit<f32>],
+    /// Triangle ids, -1 on a miss.
+    pub triangle: &'a mut [MaybeUninit<i64>],
+    /// First barycentric.
+    pub u: &'a mut [MaybeUninit<f32>],
+    /// Second barycentric.
+    pub v: &'a mut [MaybeUninit<f32>],
+    /// Hit points.
+    pub point: &'a mut [MaybeUninit<[f32; 3]>],
+    /// Unit geometric normals.
+    pub normal: &'a mut [MaybeUninit<[f32; 3]>],
+}
+
+/// Writes the closest hit of every ray into `slots` (each column one slot
+/// per ray). Each chunk of rays is traced (the library's batch query,
+/// packets for camera rays) and spread into its part of the columns at
+/// once, in parallel, while its triangles are still in cache; every slot,
+/// hit or miss, is written once.
+///
+/// # Panics
+/// If a column's length differs from the number of rays.
+pub fn closest_into(mesh: &MeshAccel, views: RayViews<'_>, slots: HitSlots<'_>) {
+    let n = views.len();
+    for len in [
+        slots.t.len(),
+        slots.triangle.len(),
+        slots.u.len(),
+        slots.v.len(),
+        slots.point.len(),
+        slots.normal.len(),
+    ] {
+        assert_eq!(len, n, "one slot per ray in every column");
+    }
     (
-        c.t.par_chunks_mut(CHUNK),
-        c.triangle.par_chunks_mut(CHUNK),
-        c.u.par_chunks_mut(CHUNK),
-        c.v.par_chunks_mut(CHUNK),
-        c.point.par_chunks_mut(CHUNK),
-        c.normal.par_chunks_mut(CHUNK),
+        slots.t.par_chunks_mut(CHUNK),
+        slots.triangle.par_chunks_mut(CHUNK),
+        slots.u.par_chunks_mut(CHUNK),
+        slots.v.par_chunks_mut(CHUNK),
+        slots.point.par_chunks_mut(CHUNK),
+        slots.normal.par_chunks_mut(CHUNK),
     )
         .into_par_iter()
         .enumerate()
@@ -225,7 +330,7 @@ pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
                 hits.resize(rays.len(), None);
                 mesh.closest_batch_into(rays, hits);
                 for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
-                    (t[i], triangle[i], u[i], v[i], point[i], normal[i]) = match hit {
+                    let (ti, tri, ui, vi, p, nrm) = match hit {
                         Some(h) => (
                             h.hit.t,
                             i64::from(h.prim),
@@ -243,10 +348,130 @@ pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
                             [f32::NAN; 3],
                         ),
                     };
+                    t[i].write(ti);
+                    triangle[i].write(tri);
+                    u[i].write(ui);
+                    v[i].write(vi);
+                    point[i].write(p);
+                    normal[i].write(nrm);
                 }
             },
         );
-    c
+}
+
+/// `values` seen as slots to overwrite.
+///
+/// # Safety
+/// Only initialised values may be written through the result (as
+/// [`closest_into`] does, with `MaybeUninit::write`), so that `values` is
+/// still initialised when it is used again.
+unsafe fn as_slots<T: Copy>(values: &mut [T]) -> &mut [MaybeUninit<T>] {
+    // SAFETY: `MaybeUninit<T>` has `T`'s layout; the caller keeps the
+    // contents initialised.
+    unsafe { &mut *(values as *mut [T] as *mut [MaybeUninit<T>]) }
+}
+
+/// The six arrays of an earlier [`closest`] result handed back as `out=`,
+/// borrowed for writing.
+pub struct HitArrays<'py> {
+    t: PyReadwriteArray1<'py, f32>,
+    triangle: PyReadwriteArray1<'py, i64>,
+    u: PyReadwriteArray1<'py, f32>,
+    v: PyReadwriteArray1<'py, f32>,
+    point: PyReadwriteArray2<'py, f32>,
+    normal: PyReadwriteArray2<'py, f32>,
+}
+
+impl<'py> HitArrays<'py> {
+    /// Borrows the arrays of `out` for `k` rays: every key of an
+    /// `intersect` result, each a writeable C-contiguous array of its dtype
+    /// and shape, none overlapping another or the inputs. Anything else is
+    /// a `ValueError` that names the key.
+    pub fn extract(out: &Bound<'py, PyDict>, k: usize) -> PyResult<Self> {
+        fn get<'py, T: numpy::Element, D: numpy::ndarray::Dimension>(
+            out: &Bound<'py, PyDict>,
+            key: &str,
+            dtype: &str,
+            shape: &[usize],
+        ) -> PyResult<PyReadwriteArray<'py, T, D>> {
+            let wanted = || {
+                let shape = match shape {
+                    [k] => format!("({k},)"),
+                    [k, m] => format!("({k}, {m})"),
+                    _ => unreachable!("the columns are 1- or 2-dimensional"),
+                };
+                format!("out[{key:?}]: expected a writeable C-contiguous {dtype} array of shape {shape}")
+            };
+            let item = out.get_item(key)?.ok_or_else(|| {
+                PyValueError::new_err(format!(
+                    "out: missing {key:?} (pass a dict returned by intersect)"
+                ))
+            })?;
+            let array = item
+                .cast::<PyArray<T, D>>()
+                .map_err(|_| PyValueError::new_err(wanted()))?;
+            if array.shape() != shape || !array.is_c_contiguous() {
+                return Err(PyValueError::new_err(wanted()));
+            }
+            array
+                .try_readwrite()
+                .map_err(|e| PyValueError::new_err(format!("{}: {e}", wanted())))
+        }
+        Ok(HitArrays {
+            t: get(out, "t", "float32", &[k])?,
+            triangle: get(out, "triangle", "int64", &[k])?,
+            u: get(out, "u", "float32", &[k])?,
+            v: get(out, "v", "float32", &[k])?,
+            point: get(out, "point", "float32", &[k, 3])?,
+            normal: get(out, "normal", "float32", &[k, 3])?,
+        })
+    }
+
+    /// The arrays as slots for [`closest_into`].
+    pub fn slots(&mut self) -> HitSlots<'_> {
+        // Checked C-contiguous in `extract`, so every slice exists.
+        let rows = |a: &mut PyReadwriteArray2<'py, f32>| -> &mut [[f32; 3]] {
+            let flat = a.as_slice_mut().expect("C-contiguous");
+            // SAFETY: `[f32; 3]` is three `f32`s with `f32`'s alignment, and
+            // the array has shape (k, 3), so its 3k values are k rows.
+            unsafe { std::slice::from_raw_parts_mut(flat.as_mut_ptr().cast(), flat.len() / 3) }
+        };
+        // SAFETY (`as_slots`): `closest_into` writes initialised values only.
+        unsafe {
+            HitSlots {
+                t: as_slots(self.t.as_slice_mut().expect("C-contiguous")),
+                triangle: as_slots(self.triangle.as_slice_mut().expect("C-contiguous")),
+                u: as_slots(self.u.as_slice_mut().expect("C-contiguous")),
+                v: as_slots(self.v.as_slice_mut().expect("C-contiguous")),
+                point: as_slots(rows(&mut self.point)),
+                normal: as_slots(rows(&mut self.normal)),
+            }
+        }
+    }
+}
+
+/// An empty vector with room for `n` values, whose memory the kernel is
+/// asked to back with transparent huge pages (Linux, when it spans one):
+/// a result column is written once and handed to NumPy, so its every 4 KB
+/// page would otherwise cost a page fault, and faults taken by both
+/// threads at once serialise in the kernel. On buddha100k's 786,432 camera
+/// rays that was most of the binding's time beyond the traversal.
+pub fn fresh_column<T>(n: usize) -> Vec<T> {
+    let column = Vec::with_capacity(n);
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let start = column.as_ptr() as usize;
+        let end = start + column.capacity() * std::mem::size_of::<T>();
+        let (lo, hi) = (start.next_multiple_of(HUGE), end / HUGE * HUGE);
+        if hi > lo {
+            // SAFETY: advice only, on whole pages inside the vector's own
+            // allocation; nothing is read or written. A refusal (THP off,
+            // an old kernel) leaves ordinary pages, so the result is unused.
+            unsafe { libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE) };
+        }
+    }
+    column
 }
 
 /// Every hit of every ray, as columns, with the index of each hit's ray.

@@ -1,6 +1,8 @@
 """arbor.Mesh: construction, attributes and the ray queries, against a
 float64 brute force and against ``arbor trace`` bit for bit."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -126,6 +128,40 @@ def test_occluded_agrees_with_intersect(rng):
     blocked = mesh.occluded(origins, directions, tmax=tmax)
     assert blocked.dtype == bool and 0 < blocked.sum() < len(blocked)
     np.testing.assert_array_equal(blocked, hits["triangle"] >= 0)
+
+
+def test_intersect_into_out_reuses_the_arrays_and_answers_alike(rng):
+    mesh = arbor.Mesh(*random_soup(rng))
+    origins, directions = random_rays(rng)
+    fresh = mesh.intersect(origins, directions, tmax=3.0)
+    # An earlier result for other rays (so every entry must be rewritten).
+    out = mesh.intersect(origins[::-1].copy(), -directions)
+    arrays = {key: out[key] for key in out}
+    assert mesh.intersect(origins, directions, tmax=3.0, out=out) is out
+    for key in fresh:
+        assert out[key] is arrays[key]
+        np.testing.assert_array_equal(out[key], fresh[key])
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda out: out.pop("normal"), 'missing "normal"'),
+        (lambda out: out.update(t=out["t"].astype(np.float64)), 'out["t"]: expected a writeable C-contiguous float32 array of shape (500,)'),
+        (lambda out: out.update(triangle=out["triangle"].astype(np.int32)), 'out["triangle"]: expected a writeable C-contiguous int64'),
+        (lambda out: out.update(point=out["point"][:7]), 'out["point"]: expected a writeable C-contiguous float32 array of shape (500, 3)'),
+        (lambda out: out.update(normal=np.asfortranarray(out["normal"])), 'out["normal"]: expected'),
+        (lambda out: out["u"].setflags(write=False), "not writeable"),
+        (lambda out: out.update(v=out["u"]), "already borrowed"),
+    ],
+)
+def test_bad_out_arrays_are_value_errors(rng, change, message):
+    mesh = arbor.Mesh(*random_soup(rng))
+    origins, directions = random_rays(rng)
+    out = mesh.intersect(origins, directions)
+    change(out)
+    with pytest.raises(ValueError, match=re.escape(message)):
+        mesh.intersect(origins, directions, out=out)
 
 
 def test_empty_mesh_and_no_rays():

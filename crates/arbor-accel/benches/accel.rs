@@ -5,59 +5,15 @@
 
 use std::hint::black_box;
 
-use arbor_accel::{
-    intersect_triangle, Aabb, Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3,
-};
+use arbor_accel::{intersect_triangle, Aabb, Accel, AccelKind, Accelerator, NoCounters, Ray, Vec3};
 use criterion::{criterion_group, criterion_main, Criterion};
 
-/// A bumpy torus of about `tris` triangles (the same shape as the
-/// `buildstats` example).
-fn torus(tris: usize) -> TriangleMesh {
-    let m = ((tris / 2) as f64 / 3.0).sqrt().max(3.0) as usize;
-    let (nu, nv) = (3 * m, m);
-    let mut vertices = Vec::with_capacity(nu * nv);
-    for j in 0..nv {
-        for i in 0..nu {
-            let u = i as f32 / nu as f32 * std::f32::consts::TAU;
-            let v = j as f32 / nv as f32 * std::f32::consts::TAU;
-            let r = 0.3 + 0.02 * (13.0 * u).sin() * (7.0 * v).cos();
-            vertices.push(Vec3::new(
-                (1.0 + r * v.cos()) * u.cos(),
-                (1.0 + r * v.cos()) * u.sin(),
-                r * v.sin(),
-            ));
-        }
-    }
-    let idx = |i: usize, j: usize| ((j % nv) * nu + (i % nu)) as u32;
-    let mut triangles = Vec::with_capacity(2 * nu * nv);
-    for j in 0..nv {
-        for i in 0..nu {
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1));
-            triangles.push([a, b, c]);
-            triangles.push([b, d, c]);
-        }
-    }
-    TriangleMesh::new(vertices, triangles)
-}
+#[path = "../examples/common/mod.rs"]
+mod common;
 
 /// Deterministic rays from outside towards points inside the bounds.
 fn rays(b: &Aabb, n: usize) -> Vec<Ray> {
-    let (c, r) = (b.center(), b.extent().length());
-    let mut s = 0x9e37_79b9_7f4a_7c15u64;
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    (0..n)
-        .map(|_| {
-            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::X);
-            let o = c + d * r;
-            let t = b.min + b.extent() * Vec3::new(rnd(), rnd(), rnd());
-            Ray::new(o, t - o, 0.0, f32::INFINITY)
-        })
-        .collect()
+    common::rays_into(b, n, 0x9e37_79b9_7f4a_7c15)
 }
 
 fn primitives(c: &mut Criterion) {
@@ -85,7 +41,7 @@ fn primitives(c: &mut Criterion) {
 }
 
 fn traversal(c: &mut Criterion) {
-    let mesh = torus(100_000);
+    let mesh = common::torus(100_000);
     let bounds = Aabb::from_points(mesh.vertices.iter().copied());
     let rs = rays(&bounds, 1024);
     let mut group = c.benchmark_group("closest_100k_1024rays");
@@ -101,7 +57,7 @@ fn traversal(c: &mut Criterion) {
                 for r in &rs {
                     let mut found = false;
                     accel.closest(r, &mut NoCounters, |p, ray| {
-                        let t = mesh.intersect(p as usize, ray)?.t;
+                        let t = mesh.intersect(p, ray)?.t;
                         found = true;
                         Some(t)
                     });

@@ -11,74 +11,22 @@
 
 use std::time::Instant;
 
-use arbor_accel::{
-    Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray, TriangleMesh, Vec3,
-};
+use arbor_accel::{Accel, AccelKind, AccelParams, Accelerator, NoCounters, Ray, TriangleMesh};
 use rayon::prelude::*;
 
-/// A bumpy torus of about `tris` triangles.
-fn torus(tris: usize) -> TriangleMesh {
-    let m = ((tris / 2) as f64 / 3.0).sqrt().max(3.0) as usize;
-    let (nu, nv) = (3 * m, m);
-    let mut vertices = Vec::with_capacity(nu * nv);
-    for j in 0..nv {
-        for i in 0..nu {
-            let u = i as f32 / nu as f32 * std::f32::consts::TAU;
-            let v = j as f32 / nv as f32 * std::f32::consts::TAU;
-            let r = 0.3 + 0.02 * (13.0 * u).sin() * (7.0 * v).cos();
-            vertices.push(Vec3::new(
-                (1.0 + r * v.cos()) * u.cos(),
-                (1.0 + r * v.cos()) * u.sin(),
-                r * v.sin(),
-            ));
-        }
-    }
-    let mut triangles = Vec::with_capacity(2 * nu * nv);
-    for j in 0..nv {
-        for i in 0..nu {
-            let idx = |i: usize, j: usize| ((j % nv) * nu + (i % nu)) as u32;
-            let (a, b, c, d) = (idx(i, j), idx(i + 1, j), idx(i, j + 1), idx(i + 1, j + 1));
-            triangles.push([a, b, c]);
-            triangles.push([b, d, c]);
-        }
-    }
-    TriangleMesh::new(vertices, triangles)
-}
+mod common;
 
 /// Reads a Cornell `.msh` file.
 fn read_msh(path: &str) -> TriangleMesh {
-    let text = std::fs::read_to_string(path).expect("read .msh");
-    let mut tok = text.split_whitespace();
-    let np: usize = tok.next().unwrap().parse().unwrap();
-    let nt: usize = tok.next().unwrap().parse().unwrap();
-    assert_eq!(tok.next(), Some("vertices"));
-    let mut num = || tok.next().unwrap().parse::<f32>().unwrap();
-    let vertices = (0..np).map(|_| Vec3::new(num(), num(), num())).collect();
-    assert_eq!(tok.next(), Some("triangles"));
-    let mut idx = || tok.next().unwrap().parse::<u32>().unwrap();
-    let triangles = (0..nt).map(|_| [idx(), idx(), idx()]).collect();
+    let (vertices, triangles) =
+        common::parse_msh(&std::fs::read_to_string(path).expect("read .msh"));
     TriangleMesh::new(vertices, triangles)
 }
 
 /// Deterministic rays from a sphere around the mesh towards points inside it.
 fn rays(mesh: &TriangleMesh, n: usize) -> Vec<Ray> {
     let b = arbor_accel::Aabb::from_points(mesh.vertices.iter().copied());
-    let (c, r) = (b.center(), b.extent().length());
-    let mut s = 0x2545_f491_4f6c_dd1du64;
-    let mut rnd = move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    };
-    (0..n)
-        .map(|_| {
-            let d = Vec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5).normalize_or(Vec3::X);
-            let o = c + d * r;
-            let t = b.min + b.extent() * Vec3::new(rnd(), rnd(), rnd());
-            Ray::new(o, t - o, 0.0, f32::INFINITY)
-        })
-        .collect()
+    common::rays_into(&b, n, 0x2545_f491_4f6c_dd1d)
 }
 
 /// CPU seconds (user + system) this process has used, from `/proc/self/stat`;
@@ -105,7 +53,7 @@ fn main() {
     };
     let mesh = match arg("--msh") {
         Some(p) => read_msh(&p),
-        None => torus(arg("--tris").map_or(100_000, |s| s.parse().unwrap())),
+        None => common::torus(arg("--tris").map_or(100_000, |s| s.parse().unwrap())),
     };
     let nrays: usize = arg("--rays").map_or(200_000, |s| s.parse().unwrap());
     let kinds: Vec<AccelKind> = match arg("--kinds") {
@@ -140,7 +88,7 @@ fn main() {
         let trace = |r: &Ray| {
             let mut best = f32::INFINITY;
             accel.closest(r, &mut NoCounters, |p, ray| {
-                let h = mesh.intersect(p as usize, ray)?;
+                let h = mesh.intersect(p, ray)?;
                 best = h.t;
                 Some(h.t)
             });

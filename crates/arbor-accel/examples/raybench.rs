@@ -17,21 +17,14 @@ use std::time::Instant;
 use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, RayCounts, Vec3};
 use rayon::prelude::*;
 
+mod common;
+
 /// A `.msh` or `.obj` file's vertices and triangles (OBJ polygons as fans),
 /// read without error handling: this is a measuring tool, not a loader.
 fn read_mesh(path: &str) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let text = std::fs::read_to_string(path).expect("read mesh");
     if path.ends_with(".msh") {
-        let mut tok = text.split_whitespace();
-        let np: usize = tok.next().unwrap().parse().unwrap();
-        let nt: usize = tok.next().unwrap().parse().unwrap();
-        assert_eq!(tok.next(), Some("vertices"));
-        let mut num = || tok.next().unwrap().parse::<f32>().unwrap();
-        let vertices = (0..np).map(|_| Vec3::new(num(), num(), num())).collect();
-        assert_eq!(tok.next(), Some("triangles"));
-        let mut idx = || tok.next().unwrap().parse::<u32>().unwrap();
-        let triangles = (0..nt).map(|_| [idx(), idx(), idx()]).collect();
-        return (vertices, triangles);
+        return common::parse_msh(&text);
     }
     let (mut v, mut t) = (Vec::new(), Vec::new());
     for line in text.lines() {

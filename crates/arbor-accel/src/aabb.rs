@@ -1,5 +1,6 @@
 use glam::Vec3;
 
+use crate::util::widen_up;
 use crate::Ray;
 
 /// Unit roundoff of `f32`: the largest relative error of one rounding.
@@ -188,6 +189,19 @@ impl Aabb {
         let t_enter = near.max_element().max(ray.tmin);
         let t_exit = widen_exit(far.min_element()).min(ray.tmax);
         (t_enter <= t_exit).then_some((t_enter, t_exit))
+    }
+
+    /// [`Aabb::intersect`] with `ray.tmax` widened up by one rounding, as
+    /// traversal culls: a box entered exactly at the current closest hit (a
+    /// shared vertex, a tie) may be entered a rounding later and must still
+    /// pass.
+    #[inline(always)]
+    pub(crate) fn intersect_widened(&self, ray: &Ray, inv_dir: Vec3) -> Option<(f32, f32)> {
+        let widened = Ray {
+            tmax: widen_up(ray.tmax),
+            ..*ray
+        };
+        self.intersect(&widened, inv_dir)
     }
 }
 

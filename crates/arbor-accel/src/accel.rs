@@ -3,7 +3,7 @@ use std::str::FromStr;
 
 use crate::{
     Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, Layout, List,
-    Primitives, Ray, WideBvh,
+    PrimitiveId, Primitives, Ray, WideBvh,
 };
 
 /// What every acceleration structure answers: the candidates a ray may hit.
@@ -21,14 +21,14 @@ pub trait Accelerator: Send + Sync {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>;
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>;
 
     /// Whether any primitive is hit within `[ray.tmin, ray.tmax]`; stops at the
     /// first `hit(prim, ray) == true`.
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool;
+        F: FnMut(PrimitiveId, &Ray) -> bool;
 
     /// Size and shape of the structure.
     fn stats(&self) -> AccelStats;
@@ -222,7 +222,7 @@ impl Accelerator for Accel {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         match self {
             Accel::List(a) => a.closest(ray, counters, hit),
@@ -236,7 +236,7 @@ impl Accelerator for Accel {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         match self {
             Accel::List(a) => a.occluded(ray, counters, hit),

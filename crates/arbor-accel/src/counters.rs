@@ -5,6 +5,8 @@
 //! [`Counters::RECORDS`], so for every other implementation they are not
 //! even compiled in.
 
+use crate::PrimitiveId;
+
 /// Receives one call per node visited and per primitive test.
 pub trait Counters {
     /// Whether [`Counters::visit`] and [`Counters::tested`] are wanted.
@@ -24,7 +26,7 @@ pub trait Counters {
     /// With [`Counters::RECORDS`]: primitive `prim` was tested (right after
     /// the matching [`Counters::test`]).
     #[inline(always)]
-    fn tested(&mut self, _prim: u32) {}
+    fn tested(&mut self, _prim: PrimitiveId) {}
 }
 
 /// Counts a visit of `node` and records it when `C` records.
@@ -46,7 +48,7 @@ pub(crate) fn skip_node<C: Counters>(counters: &mut C, node: u32) {
 
 /// Counts a test of `prim` and records it when `C` records.
 #[inline(always)]
-pub(crate) fn count_test<C: Counters>(counters: &mut C, prim: u32) {
+pub(crate) fn count_test<C: Counters>(counters: &mut C, prim: PrimitiveId) {
     counters.test();
     if C::RECORDS {
         counters.tested(prim);
@@ -113,7 +115,7 @@ pub struct Recorder {
     /// Visits and skipped boxes, in traversal order.
     pub visits: Vec<Visit>,
     /// Primitives tested, in order (`counts.tests` of them).
-    pub tests: Vec<u32>,
+    pub tests: Vec<PrimitiveId>,
 }
 
 impl Counters for Recorder {
@@ -127,7 +129,7 @@ impl Counters for Recorder {
     fn visit(&mut self, node: u32, entered: bool) {
         self.visits.push(Visit { node, entered });
     }
-    fn tested(&mut self, prim: u32) {
+    fn tested(&mut self, prim: PrimitiveId) {
         self.tests.push(prim);
     }
 }

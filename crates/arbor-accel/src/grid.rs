@@ -5,9 +5,11 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::counters::{count_node, count_test};
-use crate::util::{offer_any, offer_closest, prepare, widen_up, Mailbox};
-use crate::{Aabb, AccelStats, Accelerator, Counters, GridLayout, Layout, Primitives, Ray};
+use crate::counters::count_node;
+use crate::util::{offer_any, offer_closest, prepare, Mailbox};
+use crate::{
+    Aabb, AccelStats, Accelerator, Counters, GridLayout, Layout, PrimitiveId, Primitives, Ray,
+};
 
 /// Grid build parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -125,7 +127,7 @@ impl Grid {
                                 Vec3::new(planes[0][x + 1], planes[1][y + 1], planes[2][z + 1])
                                     + dil,
                             );
-                            prims.clipped_bounds(id as usize, &cell).is_some()
+                            prims.clipped_bounds(id, &cell).is_some()
                         };
                         if keep {
                             out.push(((z * ry + y) * rx + x) as u32);
@@ -197,11 +199,7 @@ impl Grid {
             return;
         }
         let inv = ray.inv_dir();
-        let wide = Ray {
-            tmax: widen_up(ray.tmax),
-            ..*ray
-        };
-        let Some((t0, _)) = self.bounds.intersect(&wide, inv) else {
+        let Some((t0, _)) = self.bounds.intersect_widened(ray, inv) else {
             return;
         };
         if inv.is_nan() {
@@ -374,21 +372,14 @@ impl Accelerator for Grid {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
         offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let walk_ray = ray;
         let mut mailbox = Mailbox::new();
         self.walk(&walk_ray, counters, |prims, exit, counters| {
-            for &p in prims {
-                if mailbox.insert(p) {
-                    count_test(counters, p);
-                    if let Some(t) = hit(p, &ray) {
-                        ray.tmax = ray.tmax.min(t);
-                    }
-                }
-            }
+            mailbox.offer_closest(prims, &mut ray, counters, &mut hit);
             // Every hit closer than the exit lies in a cell already visited
             // (up to the cell widening), so the nearest one is known.
             ray.tmax <= exit
@@ -398,7 +389,7 @@ impl Accelerator for Grid {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
@@ -406,16 +397,8 @@ impl Accelerator for Grid {
         let mut found = false;
         let mut mailbox = Mailbox::new();
         self.walk(ray, counters, |prims, exit, counters| {
-            for &p in prims {
-                if mailbox.insert(p) {
-                    count_test(counters, p);
-                    if hit(p, ray) {
-                        found = true;
-                        return true;
-                    }
-                }
-            }
-            ray.tmax <= exit
+            found = mailbox.offer_any(prims, ray, counters, &mut hit);
+            found || ray.tmax <= exit
         });
         found
     }
@@ -437,24 +420,11 @@ impl Accelerator for Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_meshes::assert_agrees_with_list;
     use crate::{List, NoCounters, RayCounts, TriangleMesh};
 
     fn soup() -> TriangleMesh {
-        let mut v = Vec::new();
-        let mut t = Vec::new();
-        for i in 0..300u32 {
-            let f = i as f32;
-            let c = Vec3::new(
-                (f * 0.618).fract(),
-                (f * 0.414).fract(),
-                (f * 0.732).fract(),
-            ) * 10.0;
-            v.push(c);
-            v.push(c + Vec3::new((f * 1.3).sin(), 0.5, (f * 0.7).cos()));
-            v.push(c + Vec3::new(0.3, (f * 2.1).cos(), 0.8));
-            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
-        }
-        TriangleMesh::new(v, t)
+        crate::test_meshes::soup(300)
     }
 
     #[test]
@@ -469,29 +439,16 @@ mod tests {
             let o = Vec3::new(-2.0, (f * 0.37).fract() * 12.0, (f * 0.91).fract() * 12.0);
             let d = Vec3::new(1.0, (f * 0.7).sin() * 0.5, (f * 0.3).cos() * 0.5);
             let r = Ray::new(o, d, 0.0, f32::INFINITY);
-            let mut best = [f32::INFINITY; 2];
+            assert_agrees_with_list(&g, &list, &m, &r, &format!("ray {k}"));
             let mut seen = Vec::new();
             g.closest(&r, &mut NoCounters, |p, ray| {
                 seen.push(p);
-                let t = m.intersect(p as usize, ray)?.t;
-                best[0] = t;
-                Some(t)
+                Some(m.intersect(p, ray)?.t)
             });
-            list.closest(&r, &mut NoCounters, |p, ray| {
-                let t = m.intersect(p as usize, ray)?.t;
-                best[1] = t;
-                Some(t)
-            });
-            assert_eq!(best[0], best[1], "ray {k}");
             let n = seen.len();
             seen.sort();
             seen.dedup();
             assert_eq!(seen.len(), n, "a primitive was tested twice");
-            let test = |p: u32, ray: &Ray| m.intersect(p as usize, ray).is_some();
-            assert_eq!(
-                g.occluded(&r, &mut NoCounters, test),
-                list.occluded(&r, &mut NoCounters, test)
-            );
         }
         let mut c = RayCounts::default();
         let r = Ray::new(Vec3::new(-20.0, 5.0, 5.0), Vec3::X, 0.0, 1.0);

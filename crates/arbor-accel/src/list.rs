@@ -1,5 +1,5 @@
 use crate::counters::count_test;
-use crate::{AccelStats, Accelerator, Counters, Primitives, Ray};
+use crate::{AccelStats, Accelerator, Counters, PrimitiveId, Primitives, Ray};
 
 /// Brute force: every primitive is tested against every ray. The reference
 /// that every other structure is tested against.
@@ -21,7 +21,7 @@ impl Accelerator for List {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
         for prim in 0..self.count {
@@ -35,7 +35,7 @@ impl Accelerator for List {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         (0..self.count).any(|prim| {
             count_test(counters, prim);

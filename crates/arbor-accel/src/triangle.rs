@@ -6,7 +6,7 @@
 use glam::{DVec3, Vec3};
 
 use crate::util::widen_up;
-use crate::{Aabb, Primitives, Ray};
+use crate::{Aabb, PrimitiveId, Primitives, Ray};
 
 /// Where a ray hits a triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -469,11 +469,7 @@ fn hit_from_weights(
     // triangle hit exactly at the current closest hit (a shared vertex, a
     // tie) may be entered a rounding later, and must still pass, whichever
     // of the two a traversal meets first.
-    let widened = Ray {
-        tmax: widen_up(ray.tmax),
-        ..*ray
-    };
-    let (enter, _) = Aabb::from_points([p0, p1, p2]).intersect(&widened, ray.inv_dir())?;
+    let (enter, _) = Aabb::from_points([p0, p1, p2]).intersect_widened(ray, ray.inv_dir())?;
     // A hit is never reported before the box's entry allows: where `t`
     // fell short of it (beyond the widening), as in a ray starting a
     // subnormal distance from a triangle next to a vertex at 1e30, where
@@ -592,8 +588,8 @@ impl TriangleMesh {
 
     /// The three vertices of triangle `i`.
     #[inline]
-    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
-        let [a, b, c] = self.triangles[i];
+    pub fn triangle(&self, i: PrimitiveId) -> [Vec3; 3] {
+        let [a, b, c] = self.triangles[i as usize];
         [
             self.vertices[a as usize],
             self.vertices[b as usize],
@@ -603,7 +599,7 @@ impl TriangleMesh {
 
     /// The watertight test of `ray` against triangle `i`.
     #[inline]
-    pub fn intersect(&self, i: usize, ray: &Ray) -> Option<TriangleHit> {
+    pub fn intersect(&self, i: PrimitiveId, ray: &Ray) -> Option<TriangleHit> {
         let [a, b, c] = self.triangle(i);
         intersect_triangle(ray, a, b, c)
     }
@@ -611,7 +607,12 @@ impl TriangleMesh {
     /// [`TriangleMesh::intersect`] with the ray's shear computed once by the
     /// caller (`RayShear::new(ray)`), for loops over many triangles.
     #[inline]
-    pub fn intersect_sheared(&self, i: usize, ray: &Ray, shear: &RayShear) -> Option<TriangleHit> {
+    pub fn intersect_sheared(
+        &self,
+        i: PrimitiveId,
+        ray: &Ray,
+        shear: &RayShear,
+    ) -> Option<TriangleHit> {
         let [a, b, c] = self.triangle(i);
         intersect_triangle_sheared(ray, shear, a, b, c)
     }
@@ -622,11 +623,11 @@ impl Primitives for TriangleMesh {
         self.triangles.len()
     }
 
-    fn bounds(&self, index: usize) -> Aabb {
+    fn bounds(&self, index: PrimitiveId) -> Aabb {
         Aabb::from_points(self.triangle(index))
     }
 
-    fn clipped_bounds(&self, index: usize, clip: &Aabb) -> Option<Aabb> {
+    fn clipped_bounds(&self, index: PrimitiveId, clip: &Aabb) -> Option<Aabb> {
         clip_triangle_bounds(self.triangle(index), clip)
     }
 }

@@ -88,7 +88,7 @@ where
     let (items, kinds): (Vec<T>, Vec<u8>) = (0..n)
         .into_par_iter()
         .map(|i| {
-            let b = prims.bounds(i as usize);
+            let b = prims.bounds(i);
             (f(i, b), classify(&b))
         })
         .unzip();
@@ -163,6 +163,49 @@ impl Mailbox {
             return true;
         }
         self.spill.get_or_insert_with(Default::default).insert(id)
+    }
+
+    /// [`offer_closest`] for the primitives of `prims` not offered before.
+    #[inline(always)]
+    pub(crate) fn offer_closest<C, F>(
+        &mut self,
+        prims: &[u32],
+        ray: &mut Ray,
+        counters: &mut C,
+        hit: &mut F,
+    ) where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> Option<f32>,
+    {
+        for &p in prims {
+            if self.insert(p) {
+                count_test(counters, p);
+                if let Some(t) = hit(p, ray) {
+                    ray.tmax = ray.tmax.min(t);
+                }
+            }
+        }
+    }
+
+    /// [`offer_any`] for the primitives of `prims` not offered before.
+    #[inline(always)]
+    pub(crate) fn offer_any<C, F>(
+        &mut self,
+        prims: &[u32],
+        ray: &Ray,
+        counters: &mut C,
+        hit: &mut F,
+    ) -> bool
+    where
+        C: Counters,
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        prims.iter().any(|&p| {
+            self.insert(p) && {
+                count_test(counters, p);
+                hit(p, ray)
+            }
+        })
     }
 }
 

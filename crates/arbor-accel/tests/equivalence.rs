@@ -230,7 +230,7 @@ proptest! {
     fn triangle_soups_match_brute_force(mesh in triangles(), rays in prop::collection::vec(ray_spec(), 1..24)) {
         let n = mesh.triangles.len();
         let list = List::build(&mesh);
-        let exact = |p: u32, r: &Ray| mesh.intersect(p as usize, r).map(|h| h.t);
+        let exact = |p: u32, r: &Ray| mesh.intersect(p, r).map(|h| h.t);
         let built = structures(&mesh);
         for spec in &rays {
             let ray = make_ray(spec, &mesh.vertices);
@@ -297,7 +297,7 @@ fn non_finite_vertices_neither_panic_nor_diverge() {
     let mesh = TriangleMesh::new(vertices, triangles);
     let n = mesh.triangles.len();
     let list = List::build(&mesh);
-    let exact = |p: u32, r: &Ray| mesh.intersect(p as usize, r).map(|h| h.t);
+    let exact = |p: u32, r: &Ray| mesh.intersect(p, r).map(|h| h.t);
     for (kind, a) in structures(&mesh) {
         for k in 0..64 {
             let f = k as f32;

@@ -43,7 +43,7 @@ fn huge_vertex_plane_cancellation() {
     let list = Accel::build(AccelKind::List, &mesh);
     for r in [ray, behind] {
         let expected = closest(&list, &mesh, &r);
-        let test = |p: u32, r: &Ray| mesh.intersect(p as usize, r).is_some();
+        let test = |p: u32, r: &Ray| mesh.intersect(p, r).is_some();
         let occluded = list.occluded(&r, &mut NoCounters, test);
         for &kind in AccelKind::ALL {
             let a = Accel::build(kind, &mesh);

@@ -50,7 +50,7 @@ fn rays(n: usize) -> Vec<Ray> {
 
 /// Checks one ray on one structure; returns the number of entered visits.
 fn check(kind: AccelKind, a: &Accel, layout: &Layout, mesh: &TriangleMesh, ray: &Ray) -> u64 {
-    let exact = |p: u32, r: &Ray| mesh.intersect(p as usize, r).map(|h| h.t);
+    let exact = |p: u32, r: &Ray| mesh.intersect(p, r).map(|h| h.t);
     let mut counts = RayCounts::default();
     a.closest(ray, &mut counts, exact);
     let mut rec = Recorder::default();
@@ -154,41 +154,28 @@ fn structure_records_what_it_counts(kind: AccelKind) {
     }
 }
 
-#[test]
-fn list_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::List);
+/// One test per structure, so that a failure names it.
+macro_rules! records_what_it_counts {
+    ($($test:ident: $kind:ident,)*) => {
+        $(
+            #[test]
+            fn $test() {
+                structure_records_what_it_counts(AccelKind::$kind);
+            }
+        )*
+    };
 }
-#[test]
-fn bvh_center_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhCenter);
-}
-#[test]
-fn bvh_median_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhMedian);
-}
-#[test]
-fn bvh_sah_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhSah);
-}
-#[test]
-fn bvh_sweep_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhSweep);
-}
-#[test]
-fn bvh_cluster_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhCluster);
-}
-#[test]
-fn bvh_wide_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::BvhWide);
-}
-#[test]
-fn grid_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::Grid);
-}
-#[test]
-fn kdtree_records_what_it_counts() {
-    structure_records_what_it_counts(AccelKind::KdTree);
+
+records_what_it_counts! {
+    list_records_what_it_counts: List,
+    bvh_center_records_what_it_counts: BvhCenter,
+    bvh_median_records_what_it_counts: BvhMedian,
+    bvh_sah_records_what_it_counts: BvhSah,
+    bvh_sweep_records_what_it_counts: BvhSweep,
+    bvh_cluster_records_what_it_counts: BvhCluster,
+    bvh_wide_records_what_it_counts: BvhWide,
+    grid_records_what_it_counts: Grid,
+    kdtree_records_what_it_counts: KdTree,
 }
 
 /// The layouts' trees are consistent: children one level deeper and inside

@@ -70,14 +70,12 @@ fn check(m: &TriangleMesh, origins: impl Fn(Vec3, usize) -> Vec<Vec3>) {
             for (k, a) in &structures {
                 let mut best: Option<f32> = None;
                 a.closest(&r, &mut NoCounters, |p, ray| {
-                    let t = m.intersect(p as usize, ray)?.t;
+                    let t = m.intersect(p, ray)?.t;
                     best = Some(best.map_or(t, |b: f32| b.min(t)));
                     Some(t)
                 });
                 assert!(best.is_some(), "{k}: ray from {o} to {target} escaped");
-                assert!(a.occluded(&r, &mut NoCounters, |p, ray| m
-                    .intersect(p as usize, ray)
-                    .is_some()));
+                assert!(a.occluded(&r, &mut NoCounters, |p, ray| m.intersect(p, ray).is_some()));
                 if *k == AccelKind::List {
                     want = best;
                 } else {

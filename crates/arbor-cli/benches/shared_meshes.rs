@@ -12,7 +12,9 @@
 use std::hint::black_box;
 
 use arbor_accel::numerics::{intersect_triangle_sheared, RayShear};
-use arbor_accel::{Accel, AccelKind, Accelerator, NoCounters, Ray, TriangleMesh, Vec3};
+use arbor_accel::{
+    Accel, AccelKind, Accelerator, NoCounters, PrimitiveId, Ray, TriangleMesh, Vec3,
+};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
 /// Camera rays framing the bounding sphere of `tris` (45 degree field of view).
@@ -72,7 +74,7 @@ fn shared_meshes(c: &mut Criterion) {
             }
         };
         let mesh = TriangleMesh::new(mesh.positions, mesh.triangles);
-        let tris: Vec<[Vec3; 3]> = (0..mesh.triangles.len())
+        let tris: Vec<[Vec3; 3]> = (0..mesh.triangles.len() as PrimitiveId)
             .map(|i| mesh.triangle(i))
             .collect();
         let rays = camera_rays(&tris, 128);

@@ -28,6 +28,18 @@ pub struct RunArgs {
     pub accel: Option<AccelKind>,
 }
 
+impl RunArgs {
+    /// What every batch command starts with: the structure asked for (or
+    /// the default), a pool of the threads asked for, and pending outputs
+    /// removed on an interrupt.
+    pub fn start(&self) -> anyhow::Result<(AccelKind, rayon::ThreadPool)> {
+        let kind = self.accel.unwrap_or(AccelKind::DEFAULT);
+        let pool = crate::thread_pool(self.threads.map(|n| n as usize))?;
+        crate::output::remove_pending_on_interrupt();
+        Ok((kind, pool))
+    }
+}
+
 /// Loads `path` as a triangle mesh (polygons split as fans, triangles
 /// numbered in file order) and builds `kind` over it `repeat` times on the
 /// current pool; returns the last build and the fastest build's time in

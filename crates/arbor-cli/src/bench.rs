@@ -20,10 +20,10 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use arbor::load::{Format, ObjRule};
 use arbor::scene::Scene;
-use arbor::tracer::{SplitCounters, Tracer};
+use arbor::tracer::{SplitCounters, Tracer, TracerOptions};
 use arbor_accel::{
     AccelKind, AccelStats, Accelerator, MeshAccel, NoCounters, Ray, RayCounts, Vec3,
 };
@@ -263,8 +263,8 @@ struct SceneSubject {
 }
 
 impl SceneSubject {
-    fn flatten(&self) -> anyhow::Result<Flattened> {
-        Flattened::new(&self.scene, DEFAULT_MAX_PLACEMENTS)
+    fn flatten(&self) -> anyhow::Result<FlattenedScene> {
+        FlattenedScene::new(&self.scene, DEFAULT_MAX_PLACEMENTS)
             .map_err(|e| InputError(e.to_string()).into())
     }
 }
@@ -277,7 +277,7 @@ struct SceneBuilt {
 
 impl Subject for SceneSubject {
     type Built = SceneBuilt;
-    type Ray = Ray64;
+    type Ray = arbor::ray::Ray;
 
     fn primitives(&self) -> usize {
         self.primitives
@@ -290,48 +290,44 @@ impl Subject for SceneSubject {
         }
     }
 
-    fn ray(r: &Ray64) -> Ray64 {
-        *r
+    fn ray(r: &Ray64) -> arbor::ray::Ray {
+        arbor::ray::Ray::new(r.o, r.d, r.tmin, r.tmax)
     }
 
     #[inline]
-    fn closest<C: SplitCounters>(&self, b: &SceneBuilt, r: &Ray64, c: &mut C) -> Option<f64> {
-        b.tracer
-            .closest_counted(r.o, r.d, r.tmin, r.tmax, c)
-            .map(|h| h.t)
+    fn closest<C: SplitCounters>(
+        &self,
+        b: &SceneBuilt,
+        r: &arbor::ray::Ray,
+        c: &mut C,
+    ) -> Option<f64> {
+        b.tracer.closest_counted(r, c).map(|h| h.t)
     }
 
     #[inline]
-    fn occluded<C: SplitCounters>(&self, b: &SceneBuilt, r: &Ray64, c: &mut C) -> bool {
-        b.tracer.occluded_counted(r.o, r.d, r.tmin, r.tmax, c)
+    fn occluded<C: SplitCounters>(&self, b: &SceneBuilt, r: &arbor::ray::Ray, c: &mut C) -> bool {
+        b.tracer.occluded_counted(r, c)
     }
 
     fn surface(&self, b: &SceneBuilt, r: &Ray64) -> Option<(f64, DVec3)> {
-        b.tracer
-            .closest(r.o, r.d, r.tmin, r.tmax)
-            .map(|h| (h.t, h.normal))
+        b.tracer.closest(&Self::ray(r)).map(|h| (h.t, h.normal))
     }
 
     /// The scene's own camera, one ray through each pixel centre.
     fn primary_rays(&self, _size: u32) -> Vec<Ray64> {
         let camera = self.scene.camera.prepare();
         let (w, h) = (self.scene.width, self.scene.height);
-        let tmin = match self.scene.variant {
-            arbor::scene::Variant::Cornell2010 => 0.0,
-            arbor::scene::Variant::Cornell2015 => 1e-6,
-        };
         let mut one = self.scene.clone();
         one.samples_per_side = 1;
         (0..h)
             .flat_map(|row| (0..w).map(move |col| (col, row)))
             .map(|(col, row)| {
-                let (u, v) = arbor::render::sample_uv(&one, col, row, 0, 0);
-                let (o, d) = camera.ray(u, v);
+                let r = arbor::render::camera_ray(&one, &camera, col, row, 0, 0);
                 Ray64 {
-                    o,
-                    d,
-                    tmin,
-                    tmax: f64::INFINITY,
+                    o: r.origin,
+                    d: r.direction,
+                    tmin: r.tmin,
+                    tmax: r.tmax,
                 }
             })
             .collect()
@@ -557,7 +553,7 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
         _ => None,
     };
     if let Some(scene) = scene {
-        let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS)
+        let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS)
             .map_err(|e| InputError(e.to_string()))?;
         let primitives = flat.world.len() + flat.placements.len();
         return Ok(Input::Scene(SceneSubject { scene, primitives }));
@@ -602,7 +598,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             Input::Scene(s) => bench_with(s, &accels, &kinds, &args, |k| {
                 let flat = s.flatten()?;
                 let start = Instant::now();
-                let tracer = Tracer::from_flattened(flat, k);
+                let tracer = Tracer::build(flat, &TracerOptions::with_accel(k));
                 Ok((SceneBuilt { tracer }, ms_since(start)))
             })?,
         };

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use arbor::light::Light;
 use arbor::load::{Format, Model};
 use arbor::scene::{Scene, Variant};
@@ -391,8 +391,8 @@ fn describe_model(name: &str, model: &Model, summary: &Summary) -> anyhow::Resul
 /// The report for `scene`; for a model's scene (`model`), the camera,
 /// lights and floor are said to be automatic where they are.
 pub fn describe(name: &str, scene: &Scene, model: bool, depth: usize) -> anyhow::Result<String> {
-    let flat =
-        Flattened::new(scene, DEFAULT_MAX_PLACEMENTS).map_err(|e| InputError(e.to_string()))?;
+    let flat = FlattenedScene::new(scene, DEFAULT_MAX_PLACEMENTS)
+        .map_err(|e| InputError(e.to_string()))?;
     let mut out = String::new();
     if !model {
         let variant = match scene.variant {

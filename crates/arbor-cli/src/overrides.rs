@@ -38,14 +38,9 @@ pub struct Overrides {
 }
 
 impl Overrides {
-    /// Changes `scene` as the flags ask.
-    pub fn apply(&self, scene: &mut Scene) -> Result<(), InputError> {
-        if let Some(n) = self.spp {
-            scene.samples_per_side = Scene::samples_per_side_for(n);
-        }
-        if let Some((w, h)) = self.size {
-            resize(scene, w, h);
-        }
+    /// Changes `scene` as `--quick` and `--define` ask; `--spp` and `--size`
+    /// are the library's (`arbor::render::RenderOptions`), applied first.
+    pub fn apply_quick_and_defines(&self, scene: &mut Scene) -> Result<(), InputError> {
         if self.quick {
             resize(scene, (scene.width / 4).max(1), (scene.height / 4).max(1));
             scene.samples_per_side = 1;
@@ -144,12 +139,12 @@ fn parse_vector(text: &str) -> Option<Option<DVec3>> {
     Some((v != DVec3::ZERO).then_some(v))
 }
 
-/// Parses `--spp N` (for clap).
+/// Parses `--spp N` (for clap), within the library's limit.
 pub fn parse_spp(text: &str) -> Result<u32, String> {
     text.trim()
         .parse::<u32>()
         .ok()
-        .filter(|&n| n >= 1 && i64::from(n) <= MAX_SAMPLES)
+        .filter(|&n| arbor::render::valid_samples(n.into()))
         .ok_or_else(|| format!("`{text}`: expected a whole number from 1 to {MAX_SAMPLES}"))
 }
 
@@ -165,10 +160,10 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
         s.trim()
             .parse::<i64>()
             .ok()
-            .filter(|&n| (1..=MAX_IMAGE_SIDE).contains(&n))
+            .filter(|&n| arbor::render::valid_side(n))
     };
     let (w, h) = (side(w).ok_or_else(err)?, side(h).ok_or_else(err)?);
-    if w * h > MAX_IMAGE_PIXELS {
+    if !arbor::render::valid_pixels(w, h) {
         return Err(err());
     }
     Ok((w as u32, h as u32))
@@ -236,7 +231,7 @@ mod tests {
             quick: true,
             ..Default::default()
         };
-        o.apply(&mut s).unwrap();
+        o.apply_quick_and_defines(&mut s).unwrap();
         assert_eq!((s.width, s.height, s.samples_per_side), (w / 4, h / 4, 1));
     }
 

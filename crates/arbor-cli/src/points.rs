@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use arbor_accel::{AccelKind, MeshAccel, Vec3};
+use arbor_accel::{MeshAccel, Vec3};
 use clap::Args;
 use serde_json::json;
 
@@ -112,10 +112,8 @@ fn run(
     uses_inside: bool,
     query: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
 ) -> anyhow::Result<()> {
-    let kind = args.run.accel.unwrap_or(AccelKind::DEFAULT);
-    let pool = crate::thread_pool(args.run.threads.map(|n| n as usize))?;
+    let (kind, pool) = args.run.start()?;
     let repeat = args.run.repeat as usize;
-    crate::output::remove_pending_on_interrupt();
     if let Some(path) = &args.out {
         crate::output::check_writable(path, "--out")?;
     }

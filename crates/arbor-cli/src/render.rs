@@ -6,8 +6,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use arbor::film::ImageFormat;
-use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
-use arbor::render::Region;
+use arbor::flatten::{FlattenError, FlattenedScene, DEFAULT_MAX_PLACEMENTS};
+use arbor::render::{Region, RenderOptions};
 use arbor::scene::Scene;
 use arbor::tracer::Tracer;
 use arbor_accel::AccelKind;
@@ -97,7 +97,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let job = prepare(args)?;
     let loaded = start.elapsed();
-    let built = build(args, &job.scene)?;
+    let built = build(&render_options(args), &job.scene)?;
     let (film, ray_stats, rendered) = trace_image(args, &job, &built.tracer)?;
     let heatmap = write_outputs(args, &job, &built.tracer, film)?;
     if !args.quiet {
@@ -171,13 +171,10 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
         crate::output::check_writable(path, "--heatmap")?;
     }
 
-    let mut scene = load_input(
-        args.scene.as_deref(),
-        args.up,
-        args.camera.is_some(),
-        args.quiet,
-    )?;
-    args.overrides.apply(&mut scene)?;
+    // The library's steps (load, then --spp and --size), then the
+    // command's own overrides.
+    let mut scene = load_input(args.scene.as_deref(), &render_options(args), args.quiet)?;
+    args.overrides.apply_quick_and_defines(&mut scene)?;
     let (region, tile) = match spec {
         // `resolve` names --region; a crop is the same rectangle, named as given.
         Some(spec) => crate::farm::part::resolve(spec, &scene).map_err(|e| match crop {
@@ -194,19 +191,37 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
     })
 }
 
-/// The input as `arbor render` reads it: a scene or model file (printing
-/// the loader's warnings unless `quiet`), or without one the built-in
-/// classroom.
+/// What `arbor render`'s flags ask of the library's render steps.
+fn render_options(args: &RenderArgs) -> RenderOptions {
+    RenderOptions {
+        width: args.overrides.size.map(|(w, _)| w),
+        height: args.overrides.size.map(|(_, h)| h),
+        samples: args.overrides.spp,
+        accel: args.accel,
+        model: arbor::load::ModelOptions {
+            up: args.up,
+            auto_camera: args.camera.is_some(),
+        },
+        max_placements: args.max_instances,
+        bounding_volume: args.bvol,
+    }
+}
+
+/// The input as `arbor render` reads it, with `options`' samples and size:
+/// a scene or model file (printing the loader's warnings unless `quiet`),
+/// or without one the built-in classroom.
 pub(crate) fn load_input(
     path: Option<&Path>,
-    up: Option<arbor::load::Up>,
-    auto_camera: bool,
+    options: &RenderOptions,
     quiet: bool,
 ) -> anyhow::Result<Scene> {
+    let input_error = |e: arbor::render::RenderFileError| InputError(e.to_string());
     let Some(path) = path else {
-        return Ok(arbor::default_scene::classroom());
+        let mut scene = arbor::default_scene::classroom();
+        arbor::render::apply_samples_and_size(options, &mut scene).map_err(input_error)?;
+        return Ok(scene);
     };
-    let loaded = load_scene_or_model(path, &arbor::load::ModelOptions { up, auto_camera })?;
+    let loaded = arbor::render::load(path, options).map_err(input_error)?;
     if !quiet {
         for w in &loaded.warnings {
             eprintln!("{w}");
@@ -223,38 +238,24 @@ struct Built {
     took: std::time::Duration,
 }
 
-/// The scene flattened as `arbor render` flattens it (kept in objects for
-/// `--bvol`), or the one-line error.
-pub(crate) fn flatten(
-    scene: &Scene,
-    bvol: Option<arbor::tracer::BoundingVolumeKind>,
-    max_instances: u64,
-) -> anyhow::Result<Flattened> {
-    Ok(match bvol {
-        Some(_) => Flattened::bounded(scene, max_instances),
-        None => Flattened::new(scene, max_instances),
-    }
-    .map_err(|e| InputError(e.to_string()))?)
-}
-
-/// The tracer `arbor render` builds over `flat`.
-pub(crate) fn tracer(
-    flat: Flattened,
-    kind: AccelKind,
-    bvol: Option<arbor::tracer::BoundingVolumeKind>,
-) -> Tracer {
-    match bvol {
-        Some(volume) => Tracer::from_flattened_bounded(flat, kind, volume),
-        None => Tracer::from_flattened(flat, kind),
-    }
+/// The scene flattened by the library's step, or the one-line error
+/// (naming the flag that raises a limit).
+pub(crate) fn flatten(scene: &Scene, options: &RenderOptions) -> anyhow::Result<FlattenedScene> {
+    arbor::render::flatten(scene, options).map_err(|e| {
+        let hint = match e {
+            FlattenError::TooManyPlacements { .. } => " (raise it with --max-instances)",
+            FlattenError::SingularTransform => "",
+        };
+        InputError(format!("{e}{hint}")).into()
+    })
 }
 
 /// Flattens the scene and builds the acceleration structure.
-fn build(args: &RenderArgs, scene: &Scene) -> anyhow::Result<Built> {
-    let flat = flatten(scene, args.bvol, args.max_instances)?;
+fn build(options: &RenderOptions, scene: &Scene) -> anyhow::Result<Built> {
+    let flat = flatten(scene, options)?;
     let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
     let start = Instant::now();
-    let tracer = tracer(flat, args.accel, args.bvol);
+    let tracer = arbor::render::build_tracer(flat, options);
     Ok(Built {
         tracer,
         unique,

@@ -7,7 +7,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use arbor_accel::{AccelKind, AllHits, MeshAccel, MeshHit, Ray, Vec3};
+use arbor_accel::{AllHits, MeshAccel, MeshHit, Ray, Vec3};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 
@@ -78,10 +78,8 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         (None, true) => Query::Occluded,
         (None, false) => Query::Closest,
     };
-    let kind = args.run.accel.unwrap_or(AccelKind::DEFAULT);
-    let pool = crate::thread_pool(args.run.threads.map(|n| n as usize))?;
+    let (kind, pool) = args.run.start()?;
     let repeat = args.run.repeat as usize;
-    crate::output::remove_pending_on_interrupt();
     // Everything the user can get wrong is checked before the slow part.
     if let Some(path) = &args.hits {
         crate::output::check_writable(path, "--hits")?;

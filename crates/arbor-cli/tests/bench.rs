@@ -4,6 +4,7 @@
 
 use std::fmt::Write as _;
 use std::fs;
+use std::path::Path;
 use std::process::Output;
 
 use serde_json::Value;
@@ -17,6 +18,23 @@ fn stderr(o: &Output) -> String {
 
 /// A closed, bumpy UV sphere as OBJ: `rings` x `segments` quads split into
 /// triangles (about 2 * rings * segments triangles).
+/// A temporary folder holding `ball.obj` (`sphere_obj(rings, segments)`)
+/// and, given an image size, `s.xml` (`scene(width, height)`).
+fn ball_folder(rings: u32, segments: u32, image: Option<(u32, u32)>) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("ball.obj"), sphere_obj(rings, segments)).unwrap();
+    if let Some((width, height)) = image {
+        fs::write(dir.path().join("s.xml"), scene(width, height)).unwrap();
+    }
+    dir
+}
+
+/// Runs `arbor` in `dir` with the space-separated words of `command`.
+fn run(dir: &Path, command: &str) -> Output {
+    let args: Vec<&str> = command.split_whitespace().collect();
+    arbor(dir, &args)
+}
+
 fn sphere_obj(rings: u32, segments: u32) -> String {
     let mut s = String::new();
     for i in 0..=rings {
@@ -60,24 +78,10 @@ fn accels() -> Vec<&'static str> {
 
 #[test]
 fn json_has_every_field_with_sane_values() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(16, 24)).unwrap();
-    let out = arbor(
+    let dir = ball_folder(16, 24, None);
+    let out = run(
         dir.path(),
-        &[
-            "bench",
-            "ball.obj",
-            "--accel",
-            "all",
-            "--json",
-            "b.json",
-            "--size",
-            "48",
-            "--repeat",
-            "1",
-            "--threads",
-            "2",
-        ],
+        "bench ball.obj --accel all --json b.json --size 48 --repeat 1 --threads 2",
     );
     assert!(out.status.success(), "{}", stderr(&out));
     let table = String::from_utf8_lossy(&out.stdout);
@@ -163,27 +167,8 @@ fn nodes_bound(prims: u64) -> f64 {
 
 #[test]
 fn ray_kinds_and_plots() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(8, 12)).unwrap();
-    let out = arbor(
-        dir.path(),
-        &[
-            "bench",
-            "ball.obj",
-            "--accel",
-            "grid,bvh-sah",
-            "--rays",
-            "shadow",
-            "--json",
-            "s.json",
-            "--plot",
-            "p.svg",
-            "--size",
-            "16",
-            "--repeat",
-            "1",
-        ],
-    );
+    let dir = ball_folder(8, 12, None);
+    let out = run(dir.path(), "bench ball.obj --accel grid,bvh-sah --rays shadow --json s.json --plot p.svg --size 16 --repeat 1");
     assert!(out.status.success(), "{}", stderr(&out));
     let doc: Value =
         serde_json::from_str(&fs::read_to_string(dir.path().join("s.json")).unwrap()).unwrap();
@@ -213,8 +198,7 @@ fn ray_kinds_and_plots() {
 
 #[test]
 fn bad_input_exits_2_and_writes_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(4, 6)).unwrap();
+    let dir = ball_folder(4, 6, None);
     fs::write(dir.path().join("bad.obj"), "v 0 0 0\nf 1 2 oops\n").unwrap();
     let cases: &[&[&str]] = &[
         &["bench", "ball.obj", "--accel", "octree", "--json", "o.json"],
@@ -264,9 +248,7 @@ fn scene(width: u32, height: u32) -> String {
 
 #[test]
 fn heatmap_for_every_accelerator() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(10, 16)).unwrap();
-    fs::write(dir.path().join("s.xml"), scene(64, 48)).unwrap();
+    let dir = ball_folder(10, 16, Some((64, 48)));
     let mut plain = None;
     for accel in accels().iter().chain(&["list"]) {
         let heat = format!("heat-{accel}.png");
@@ -328,13 +310,8 @@ fn heatmap_for_every_accelerator() {
 
 #[test]
 fn stats_report_rays_by_kind() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(10, 16)).unwrap();
-    fs::write(dir.path().join("s.xml"), scene(40, 30)).unwrap();
-    let out = arbor(
-        dir.path(),
-        &["render", "s.xml", "-o", "img.png", "--stats", "--quiet"],
-    );
+    let dir = ball_folder(10, 16, Some((40, 30)));
+    let out = run(dir.path(), "render s.xml -o img.png --stats --quiet");
     assert!(out.status.success(), "{}", stderr(&out));
     let err = stderr(&out);
     let rays = |kind: &str| -> u64 {
@@ -354,13 +331,8 @@ fn stats_report_rays_by_kind() {
 
 #[test]
 fn heatmap_bad_extension_exits_2() {
-    let dir = tempfile::tempdir().unwrap();
-    fs::write(dir.path().join("ball.obj"), sphere_obj(4, 6)).unwrap();
-    fs::write(dir.path().join("s.xml"), scene(8, 8)).unwrap();
-    let out = arbor(
-        dir.path(),
-        &["render", "s.xml", "-o", "img.png", "--heatmap", "h.jpg"],
-    );
+    let dir = ball_folder(4, 6, Some((8, 8)));
+    let out = run(dir.path(), "render s.xml -o img.png --heatmap h.jpg");
     assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
     assert!(!dir.path().join("img.png").exists());
     assert!(!dir.path().join("h.jpg").exists());

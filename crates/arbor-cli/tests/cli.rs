@@ -81,43 +81,22 @@ fn render_outputs_are_checked_before_loading() {
     let d = setup();
     let d = d.path();
     // `bad.xml` does not load: the output is refused first.
-    for scene in ["s.xml", "bad.xml"] {
-        refused(
-            d,
-            &["render", scene, "-q", "-o", "nosuchdir/x.png"],
+    let refusals = [
+        (
+            "-o",
             "nosuchdir/x.png",
             "cannot write: the folder nosuchdir does not exist",
-        );
-        refused(
-            d,
-            &["render", scene, "-q", "-o", "sub"],
-            "sub",
-            "it is a folder; -o names a file",
-        );
-        refused(
-            d,
-            &["render", scene, "-q", "-o", "file/x.png"],
-            "file/x.png",
-            "file is not a folder",
-        );
-        refused(
-            d,
-            &["render", scene, "-q", "--heatmap", "nosuchdir/h.png"],
-            "nosuchdir/h.png",
-            "does not exist",
-        );
-        refused(
-            d,
-            &["render", scene, "-q", "--heatmap", "h.jpg"],
-            "h.jpg",
-            "--heatmap writes a .png file",
-        );
-        refused(
-            d,
-            &["render", scene, "-q", "-o", "x.jpg"],
-            "x.jpg",
-            "unknown image format",
-        );
+        ),
+        ("-o", "sub", "it is a folder; -o names a file"),
+        ("-o", "file/x.png", "file is not a folder"),
+        ("--heatmap", "nosuchdir/h.png", "does not exist"),
+        ("--heatmap", "h.jpg", "--heatmap writes a .png file"),
+        ("-o", "x.jpg", "unknown image format"),
+    ];
+    for scene in ["s.xml", "bad.xml"] {
+        for (flag, target, expect) in refusals {
+            refused(d, &["render", scene, "-q", flag, target], target, expect);
+        }
     }
     // The good scene with good outputs writes both.
     let o = arbor(
@@ -136,30 +115,30 @@ fn other_commands_check_their_outputs_first() {
     assert!(ok.status.success());
     let ok = arbor(d, &["render", "s.xml", "-q", "-o", "a.png"]);
     assert!(ok.status.success());
-    refused(
-        d,
-        &["merge", "whole.part", "-o", "nosuchdir/m.png"],
-        "nosuchdir/m.png",
-        "does not exist",
-    );
-    refused(
-        d,
-        &["merge", "whole.part", "-o", "sub"],
-        "sub",
-        "it is a folder",
-    );
-    refused(
-        d,
-        &["compare", "a.png", "a.png", "--diff", "nosuchdir/d.png"],
-        "nosuchdir/d.png",
-        "does not exist",
-    );
-    refused(
-        d,
-        &["compare", "a.png", "a.png", "--diff", "d.txt"],
-        "d.txt",
-        "--diff writes a .png file",
-    );
+    // Each names the refused output last.
+    let refusals: [(&[&str], &str); 6] = [
+        (
+            &["merge", "whole.part", "-o", "nosuchdir/m.png"],
+            "does not exist",
+        ),
+        (&["merge", "whole.part", "-o", "sub"], "it is a folder"),
+        (
+            &["compare", "a.png", "a.png", "--diff", "nosuchdir/d.png"],
+            "does not exist",
+        ),
+        (
+            &["compare", "a.png", "a.png", "--diff", "d.txt"],
+            "--diff writes a .png file",
+        ),
+        (
+            &["bench", "bad.xml", "--json", "nosuchdir/b.json"],
+            "does not exist",
+        ),
+        (&["bench", "bad.xml", "--plot", "sub"], "it is a folder"),
+    ];
+    for (args, expect) in refusals {
+        refused(d, args, args[args.len() - 1], expect);
+    }
     // The farm creates missing folders, but not under a file.
     for (out, needle) in [
         ("file/new/f.png", "file is not a folder"),
@@ -194,18 +173,6 @@ fn other_commands_check_their_outputs_first() {
         ],
         &abs,
         "it is a file; -o names a folder",
-    );
-    refused(
-        d,
-        &["bench", "bad.xml", "--json", "nosuchdir/b.json"],
-        "nosuchdir/b.json",
-        "does not exist",
-    );
-    refused(
-        d,
-        &["bench", "bad.xml", "--plot", "sub"],
-        "sub",
-        "it is a folder",
     );
 }
 
@@ -251,14 +218,21 @@ mod overrides {
             }
         }
 
-        /// Renders `xml` with `flags` to a PNG; returns its bytes.
-        fn render(&self, xml: &str, flags: &[&str]) -> Vec<u8> {
+        /// Runs `arbor render` on `xml` with `flags`, to `o.png` (removed
+        /// first).
+        fn run(&self, xml: &str, flags: &[&str]) -> std::process::Output {
             let d = self.dir.path();
             fs::write(d.join("s.xml"), xml).unwrap();
             let _ = fs::remove_file(d.join("o.png"));
             let mut args = vec!["render", "s.xml", "-q", "-o", "o.png"];
             args.extend_from_slice(flags);
-            let o = arbor(d, &args);
+            arbor(d, &args)
+        }
+
+        /// Renders `xml` with `flags` to a PNG; returns its bytes.
+        fn render(&self, xml: &str, flags: &[&str]) -> Vec<u8> {
+            let d = self.dir.path();
+            let o = self.run(xml, flags);
             assert!(
                 o.status.success(),
                 "{flags:?}: {}",
@@ -279,11 +253,7 @@ mod overrides {
         /// `flags` fail with status 2, one line containing `needle`, no image.
         fn refused(&self, xml: &str, flags: &[&str], needle: &str) {
             let d = self.dir.path();
-            fs::write(d.join("s.xml"), xml).unwrap();
-            let _ = fs::remove_file(d.join("o.png"));
-            let mut args = vec!["render", "s.xml", "-q", "-o", "o.png"];
-            args.extend_from_slice(flags);
-            let o = arbor(d, &args);
+            let o = self.run(xml, flags);
             let err = String::from_utf8_lossy(&o.stderr).into_owned();
             assert_eq!(o.status.code(), Some(2), "{flags:?}: {err}");
             assert!(
@@ -338,26 +308,22 @@ mod overrides {
         ] {
             c.same(&base, &["-D", define], &scene(false, camera, IMAGE));
         }
-        c.same(
-            &base,
-            &["--define", "samples=4"],
-            &scene(false, "", &format!("{IMAGE}<samples>4</samples>")),
-        );
-        let typed = scene(true, "", IMAGE);
-        c.same(
-            &typed,
-            &["--define", "exposure=2.5"],
-            &scene(true, "", &format!("{IMAGE}<exposure>2.5</exposure>")),
-        );
-        c.same(
-            &typed,
-            &["--define", "backColor=0.2,0.3,0.4"],
-            &scene(
+        // Scene-level values; exposure and backColor need a 2015 scene.
+        for (typed, define, top) in [
+            (false, "samples=4", "<samples>4</samples>"),
+            (true, "exposure=2.5", "<exposure>2.5</exposure>"),
+            (
                 true,
-                "",
-                &format!("{IMAGE}<backColor>0.2 0.3 0.4</backColor>"),
+                "backColor=0.2,0.3,0.4",
+                "<backColor>0.2 0.3 0.4</backColor>",
             ),
-        );
+        ] {
+            c.same(
+                &scene(typed, "", IMAGE),
+                &["--define", define],
+                &scene(typed, "", &format!("{IMAGE}{top}")),
+            );
+        }
     }
 
     #[test]

@@ -5,9 +5,9 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use arbor::flatten::Flattened;
+use arbor::flatten::FlattenedScene;
 use arbor::scene::Scene;
-use arbor::tracer::Tracer;
+use arbor::tracer::{Tracer, TracerOptions};
 use arbor_accel::{AccelKind, NoCounters, RayCounts};
 use serde_json::Value;
 
@@ -38,6 +38,12 @@ fn ok(args: &[&str]) {
         "arbor {args:?} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// Runs `arbor explain SCENE --quiet --size SIZE EXTRA...`, asserting
+/// success.
+fn explain_quietly(scene: &Path, size: &str, extra: &[&str]) {
+    ok(&[&["explain", s(scene), "--quiet", "--size", size], extra].concat());
 }
 
 fn read_json(path: &Path) -> Value {
@@ -102,10 +108,12 @@ fn check_ray(input: Option<&Path>, size: (u32, u32), px: (u32, u32)) -> Value {
 
     let scene = scene(input, size);
     let camera = scene.camera.prepare();
-    let (o, d) = arbor::heatmap::camera_ray(&scene, &camera, px.0, px.1, 0, 0);
-    let tmin = arbor::heatmap::camera_tmin(scene.variant);
-    assert_eq!(v["ray"]["origin"], serde_json::json!(o.to_array()));
-    assert_eq!(v["ray"]["direction"], serde_json::json!(d.to_array()));
+    let ray = arbor::render::camera_ray(&scene, &camera, px.0, px.1, 0, 0);
+    assert_eq!(v["ray"]["origin"], serde_json::json!(ray.origin.to_array()));
+    assert_eq!(
+        v["ray"]["direction"],
+        serde_json::json!(ray.direction.to_array())
+    );
     let structures = v["structures"].as_array().unwrap();
     assert_eq!(structures.len(), AccelKind::ALL.len());
     for (st, &kind) in structures.iter().zip(AccelKind::ALL) {
@@ -114,9 +122,12 @@ fn check_ray(input: Option<&Path>, size: (u32, u32), px: (u32, u32)) -> Value {
             keys(st),
             set(&["accel", "visits", "tests", "placements", "hit", "counts"])
         );
-        let tracer = Tracer::from_flattened(Flattened::new(&scene, 1 << 20).unwrap(), kind);
+        let tracer = Tracer::build(
+            FlattenedScene::new(&scene, 1 << 20).unwrap(),
+            &TracerOptions::with_accel(kind),
+        );
         let mut counts = RayCounts::default();
-        tracer.closest_counted(o, d, tmin, f64::INFINITY, &mut counts);
+        tracer.closest_counted(&ray, &mut counts);
         assert_eq!(st["counts"]["nodes"], counts.nodes, "{kind}: nodes");
         assert_eq!(st["counts"]["tests"], counts.tests, "{kind}: tests");
         // Lengths: entered visits and tests of both levels.
@@ -140,7 +151,7 @@ fn check_ray(input: Option<&Path>, size: (u32, u32), px: (u32, u32)) -> Value {
         if kind != AccelKind::List {
             assert!(counts.nodes > 0, "{kind}: the ray visits something");
         }
-        match tracer.closest_identified(o, d, tmin, f64::INFINITY, &mut NoCounters) {
+        match tracer.closest_identified(&ray, &mut NoCounters) {
             Some((id, hit)) => {
                 // Exactly: serde_json writes the shortest round-trip
                 // digits (its default reader may round the last bit).
@@ -149,7 +160,7 @@ fn check_ray(input: Option<&Path>, size: (u32, u32), px: (u32, u32)) -> Value {
                 assert!((st["hit"]["t"].as_f64().unwrap() - hit.t).abs() <= 1e-12 * hit.t);
                 assert_eq!(st["hit"]["primitive"], id.primitive, "{kind}: primitive");
                 // The renderer's own query agrees.
-                let t = tracer.closest(o, d, tmin, f64::INFINITY).unwrap().t;
+                let t = tracer.closest(&ray).unwrap().t;
                 assert_eq!(t, hit.t);
             }
             None => assert!(st["hit"].is_null(), "{kind}: no hit"),
@@ -275,15 +286,7 @@ fn picks_equal_the_ray_output_and_name_drawn_nodes() {
     let dir = temp();
     let page = dir.path().join("p.html");
     let Some(scene) = cornell() else { return };
-    ok(&[
-        "explain",
-        s(&scene),
-        "--quiet",
-        "--size",
-        "80x45",
-        "-o",
-        s(&page),
-    ]);
+    explain_quietly(&scene, "80x45", &["-o", s(&page)]);
     let d = page_data(&page);
     let rays = d["picks"]["rays"].as_array().unwrap();
     let stride = d["picks"]["stride"].as_u64().unwrap();
@@ -296,17 +299,7 @@ fn picks_equal_the_ray_output_and_name_drawn_nodes() {
         assert_eq!((x % stride, y % stride), (0, 0));
         let json = dir.path().join("ray.json");
         let ray = format!("{x},{y}");
-        ok(&[
-            "explain",
-            s(&scene),
-            "--quiet",
-            "--size",
-            "80x45",
-            "--ray",
-            &ray,
-            "--json",
-            s(&json),
-        ]);
+        explain_quietly(&scene, "80x45", &["--ray", &ray, "--json", s(&json)]);
         let mut want = read_json(&json);
         // Each top-level visit's box is its node's box in the page.
         for (st, page_st) in want["structures"]
@@ -498,10 +491,7 @@ fn bounding_volumes_of_bvol_wrap_their_objects() {
     let page = dir.path().join("p.html");
     let Some(scene) = cornell() else { return };
     let run = |extra: &[&str]| {
-        let mut args = vec!["explain", s(&scene), "--quiet", "--size", "40x30"];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&["-o", s(&page)]);
-        ok(&args);
+        explain_quietly(&scene, "40x30", &[extra, &["-o", s(&page)]].concat());
         page_data(&page)
     };
     assert_eq!(run(&[])["bounding_volumes"], serde_json::json!([]));

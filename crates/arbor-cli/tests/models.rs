@@ -3,6 +3,7 @@
 
 mod support;
 use support::arbor_in as arbor;
+use support::folder_with;
 
 #[test]
 fn a_written_model_renders_to_a_picture_with_the_model_in_it() {
@@ -84,10 +85,10 @@ fn assimp_models_render_and_invalid_ones_fail() {
 
 #[test]
 fn info_reports_the_engine_structure() {
-    let Some(models) = arbor_test_data::assimp_models() else {
+    let glb = "glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb";
+    let Some(glb) = arbor_test_data::assimp_model(glb) else {
         return;
     };
-    let glb = models.join("glTF2/2CylinderEngine-glTF-Binary/2CylinderEngine.glb");
     let dir = tempfile::tempdir().unwrap();
     let o = arbor(dir.path(), &["info", glb.to_str().unwrap()]);
     let out = String::from_utf8_lossy(&o.stdout);
@@ -105,13 +106,11 @@ fn info_reports_the_engine_structure() {
 
 #[test]
 fn unknown_extensions_are_refused_before_parsing() {
-    let dir = tempfile::tempdir().unwrap();
     // A valid scene under a name arbor does not read: refused, not parsed.
-    std::fs::write(
-        dir.path().join("car.3ds"),
+    let dir = folder_with(
+        "car.3ds",
         "<scene><camera/><surface type=\"Sphere\"/></scene>",
-    )
-    .unwrap();
+    );
     let want = "car.3ds: not a format arbor reads (.3ds); it reads .xml, .obj, .ply, .stl, .gltf, .glb, .msh";
     for args in [
         &["render", "car.3ds", "-o", "out.png"][..],
@@ -165,12 +164,10 @@ fn vertex_colours_show_in_the_picture() {
 
 #[test]
 fn up_and_camera_flags() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("t.obj"),
+    let dir = folder_with(
+        "t.obj",
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\n",
-    )
-    .unwrap();
+    );
     let o = arbor(
         dir.path(),
         &[
@@ -194,10 +191,9 @@ fn up_and_camera_flags() {
 /// JSON with `--json`, written only when everything succeeded.
 #[test]
 fn info_describes_a_model_and_writes_json() {
-    let Some(models) = arbor_test_data::assimp_models() else {
+    let Some(spider) = arbor_test_data::assimp_model("OBJ/spider.obj") else {
         return;
     };
-    let spider = models.join("OBJ/spider.obj");
     let dir = tempfile::tempdir().unwrap();
     let o = arbor(
         dir.path(),

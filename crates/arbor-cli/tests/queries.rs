@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 mod support;
-use support::{arbor, s};
+use support::{arbor, s, trace_args};
 
 /// The cube [0, 1]^3, six outward-facing quads (split into fans).
 const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
@@ -20,6 +20,30 @@ fn words(bytes: &[u8]) -> Vec<[u8; 4]> {
         .chunks_exact(4)
         .map(|w| [w[0], w[1], w[2], w[3]])
         .collect()
+}
+
+/// `arbor CMD --mesh MESH --points POINTS --out OUT EXTRA...` (`inside`,
+/// `nearest`).
+fn points_args<'a>(
+    cmd: &'a str,
+    mesh: &'a Path,
+    points: &'a Path,
+    out: &'a Path,
+    extra: &[&'a str],
+) -> Vec<&'a str> {
+    [
+        &[
+            cmd,
+            "--mesh",
+            s(mesh),
+            "--points",
+            s(points),
+            "--out",
+            s(out),
+        ],
+        extra,
+    ]
+    .concat()
 }
 
 struct Fixture {
@@ -97,17 +121,7 @@ fn every_hit_and_counts_cross_the_cube_once_per_face() {
     let f = Fixture::new(CUBE_OBJ);
     let rays = f.file("cube.rays", &cube_rays());
     let all = f.out("all.hits");
-    let (stdout, _) = f.ok(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&rays),
-        "--query",
-        "all",
-        "--hits",
-        s(&all),
-    ]);
+    let (stdout, _) = f.ok(&trace_args(&f.mesh, &rays, &all, &["--query", "all"]));
     let json = summary(&stdout);
     assert_eq!(json["query"], "all");
     let bytes = std::fs::read(&all).unwrap();
@@ -136,17 +150,7 @@ fn every_hit_and_counts_cross_the_cube_once_per_face() {
     assert_eq!(json["hits"], (counts.iter().sum::<usize>()) as u64);
 
     let count = f.out("count.bin");
-    f.ok(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&rays),
-        "--query",
-        "count",
-        "--hits",
-        s(&count),
-    ]);
+    f.ok(&trace_args(&f.mesh, &rays, &count, &["--query", "count"]));
     let got: Vec<u32> = words(&std::fs::read(&count).unwrap())
         .into_iter()
         .map(u32::from_le_bytes)
@@ -155,27 +159,8 @@ fn every_hit_and_counts_cross_the_cube_once_per_face() {
 
     // The old spelling and the new one answer alike.
     let (a, b) = (f.out("a.occ"), f.out("b.occ"));
-    f.ok(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&rays),
-        "--occluded",
-        "--hits",
-        s(&a),
-    ]);
-    f.ok(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&rays),
-        "--query",
-        "occluded",
-        "--hits",
-        s(&b),
-    ]);
+    f.ok(&trace_args(&f.mesh, &rays, &a, &["--occluded"]));
+    f.ok(&trace_args(&f.mesh, &rays, &b, &["--query", "occluded"]));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
     assert_eq!(std::fs::read(&a).unwrap()[..3], [1, 1, 1]);
 }
@@ -200,30 +185,19 @@ fn inside_and_nearest_on_the_cube() {
         .concat(),
     );
     let inside = f.out("inside.bin");
-    let (stdout, stderr) = f.ok(&[
-        "inside",
-        "--mesh",
-        s(&f.mesh),
-        "--points",
-        s(&points),
-        "--out",
-        s(&inside),
-    ]);
+    let (stdout, stderr) = f.ok(&points_args("inside", &f.mesh, &points, &inside, &[]));
     assert!(!stderr.contains("warning"), "{stderr}");
     assert_eq!(std::fs::read(&inside).unwrap(), [1, 1, 0, 0, 0]);
     assert_eq!(summary(&stdout)["found"], 2);
 
     let near = f.out("near.bin");
-    f.ok(&[
+    f.ok(&points_args(
         "nearest",
-        "--mesh",
-        s(&f.mesh),
-        "--points",
-        s(&points),
-        "--out",
-        s(&near),
-        "--signed",
-    ]);
+        &f.mesh,
+        &points,
+        &near,
+        &["--signed"],
+    ));
     let bytes = std::fs::read(&near).unwrap();
     assert_eq!(bytes.len(), 5 * 32);
     let rec = |i: usize| {
@@ -253,15 +227,7 @@ fn open_meshes_are_warned_about() {
     let f = Fixture::new(&open);
     let points = f.file("p.points", &point([0.5, 0.5, 0.5], f32::INFINITY));
     let out = f.out("inside.bin");
-    let (_, stderr) = f.ok(&[
-        "inside",
-        "--mesh",
-        s(&f.mesh),
-        "--points",
-        s(&points),
-        "--out",
-        s(&out),
-    ]);
+    let (_, stderr) = f.ok(&points_args("inside", &f.mesh, &points, &out, &[]));
     assert!(
         stderr.contains("warning: ")
             && stderr.contains("4 edges are not shared by exactly two triangles"),
@@ -281,7 +247,7 @@ fn bad_point_files_and_meshes_exit_2_without_output() {
     let odd = f.file("odd.points", &[0u8; 17]);
     for cmd in ["inside", "nearest"] {
         f.fails(
-            &[cmd, "--mesh", s(&f.mesh), "--points", s(&odd), "--out", s(&out)],
+            &points_args(cmd, &f.mesh, &odd, &out, &[]),
             &out,
             "odd.points: a point file holds 16-byte records (x, y, z, max_distance as little-endian f32), but its length 17 is not a multiple of 16",
         );
@@ -291,103 +257,42 @@ fn bad_point_files_and_meshes_exit_2_without_output() {
         &[point([0.0; 3], 1.0), point([0.0, f32::NAN, 0.0], 1.0)].concat(),
     );
     f.fails(
-        &[
-            "inside",
-            "--mesh",
-            s(&f.mesh),
-            "--points",
-            s(&nan),
-            "--out",
-            s(&out),
-        ],
+        &points_args("inside", &f.mesh, &nan, &out, &[]),
         &out,
         "nan.points: point 1 (bytes 16..32) has a coordinate that is not a finite number",
     );
     let negative = f.file("neg.points", &point([0.0; 3], -1.0));
     f.fails(
-        &[
-            "nearest",
-            "--mesh",
-            s(&f.mesh),
-            "--points",
-            s(&negative),
-            "--out",
-            s(&out),
-        ],
+        &points_args("nearest", &f.mesh, &negative, &out, &[]),
         &out,
         "neg.points: point 0 has max_distance -1; expected a number >= 0",
     );
     let empty = f.file("empty.obj", b"v 0 0 0\n");
     let good = f.file("good.points", &point([0.0; 3], 1.0));
     f.fails(
-        &[
-            "nearest",
-            "--mesh",
-            s(&empty),
-            "--points",
-            s(&good),
-            "--out",
-            s(&out),
-        ],
+        &points_args("nearest", &empty, &good, &out, &[]),
         &out,
         "empty.obj: the mesh has no triangles",
     );
     f.fails(
-        &[
-            "inside",
-            "--mesh",
-            s(&f.mesh),
-            "--points",
-            s(&f.out("none.points")),
-            "--out",
-            s(&out),
-        ],
+        &points_args("inside", &f.mesh, &f.out("none.points"), &out, &[]),
         &out,
         "none.points: cannot read the point file",
     );
     let nowhere = f.out("no/such/dir/out.bin");
     f.fails(
-        &[
-            "inside",
-            "--mesh",
-            s(&f.mesh),
-            "--points",
-            s(&good),
-            "--out",
-            s(&nowhere),
-        ],
+        &points_args("inside", &f.mesh, &good, &nowhere, &[]),
         &nowhere,
         "cannot write: the folder",
     );
     let rays = f.file("r.rays", &cube_rays());
     f.fails(
-        &[
-            "trace",
-            "--mesh",
-            s(&f.mesh),
-            "--rays",
-            s(&rays),
-            "--query",
-            "all",
-            "--occluded",
-            "--hits",
-            s(&out),
-        ],
+        &trace_args(&f.mesh, &rays, &out, &["--query", "all", "--occluded"]),
         &out,
         "cannot be used with",
     );
     f.fails(
-        &[
-            "trace",
-            "--mesh",
-            s(&f.mesh),
-            "--rays",
-            s(&rays),
-            "--query",
-            "every",
-            "--hits",
-            s(&out),
-        ],
+        &trace_args(&f.mesh, &rays, &out, &["--query", "every"]),
         &out,
         "invalid value 'every'",
     );

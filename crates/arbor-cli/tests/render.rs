@@ -3,11 +3,12 @@
 //! line, no output file, never a panic).
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 mod support;
 use support::arbor_in as arbor;
+use support::files_ending;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -71,13 +72,20 @@ impl Case {
         assert!(err.contains(needle), "expected {needle:?} in: {err}");
         assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
         assert!(!err.contains("panicked"), "{err}");
-        let left: Vec<PathBuf> = fs::read_dir(self.path())
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "png" || e == "tmp"))
-            .collect();
+        let left = files_ending(self.path(), &["png", "tmp"]);
         assert!(left.is_empty(), "no output expected, found {left:?}");
     }
+}
+
+/// [`Case::expect_error`] for a 2010 scene with `body` added.
+fn scene_error(body: &str, location: &str, needle: &str) {
+    Case::new(&scene_2010(body)).expect_error(location, needle);
+}
+
+/// Asserts exit status 2 and `needle` in the message.
+fn assert_exit_2_saying(out: &Output, needle: &str) {
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(out).contains(needle), "{}", stderr(out));
 }
 
 #[test]
@@ -183,10 +191,8 @@ fn element_names_are_case_insensitive() {
 
 #[test]
 fn number_that_does_not_parse() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<surface type="Sphere"><radius>1.2.3</radius></surface>"#,
-    ))
-    .expect_error(
         "s.xml:12:24: ",
         "<radius>: expected a number, found '1.2.3'",
     );
@@ -194,18 +200,17 @@ fn number_that_does_not_parse() {
 
 #[test]
 fn vector_with_wrong_count() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<surface type="Sphere"><center>1 2</center></surface>"#,
-    ))
-    .expect_error("s.xml:12:24: ", "expected 3 numbers, found 2");
+        "s.xml:12:24: ",
+        "expected 3 numbers, found 2",
+    );
 }
 
 #[test]
 fn ref_to_undefined_name() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<surface type="Sphere"><shader ref="blue"/></surface>"#,
-    ))
-    .expect_error(
         "s.xml:12:24: ",
         "no element named 'blue' is defined before this point",
     );
@@ -213,11 +218,12 @@ fn ref_to_undefined_name() {
 
 #[test]
 fn reference_cycle_in_defs() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<defs><surface type="Group" name="a"><surface ref="b"/></surface>
 <surface type="Group" name="b"><surface ref="a"/></surface></defs>"#,
-    ))
-    .expect_error("s.xml:12:7: ", "definitions form a cycle: a -> b -> a");
+        "s.xml:12:7: ",
+        "definitions form a cycle: a -> b -> a",
+    );
 }
 
 #[test]
@@ -227,35 +233,40 @@ fn too_many_instances() {
 <surface ref="a"/><surface ref="a"/><surface ref="a"/>"#,
     ));
     let out = case.render(&["--max-instances", "2"]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).contains("places shared surfaces 3 times; the limit is 2"),
-        "{}",
-        stderr(&out)
-    );
+    assert_exit_2_saying(&out, "places shared surfaces 3 times; the limit is 2");
+    // The command names its flag; the library's message does not.
+    assert_exit_2_saying(&out, "(raise it with --max-instances)");
     assert!(case.render(&["--max-instances", "3"]).status.success());
 }
 
 #[test]
 fn unknown_types() {
-    Case::new(&scene_2010(r#"<surface type="Torus"/>"#)).expect_error(
+    scene_error(
+        r#"<surface type="Torus"/>"#,
         "s.xml:12:1: ",
         "unknown surface type 'Torus'; expected one of Sphere, Box, Mesh, Group",
     );
-    Case::new(&scene_2010(r#"<shader type="Toon"/>"#))
-        .expect_error("s.xml:12:1: ", "unknown shader type 'Toon'");
-    Case::new(&scene_2010(r#"<light type="SpotLight"/>"#))
-        .expect_error("s.xml:12:1: ", "unknown light type 'SpotLight'");
+    scene_error(
+        r#"<shader type="Toon"/>"#,
+        "s.xml:12:1: ",
+        "unknown shader type 'Toon'",
+    );
+    scene_error(
+        r#"<light type="SpotLight"/>"#,
+        "s.xml:12:1: ",
+        "unknown light type 'SpotLight'",
+    );
     Case::new(&scene_2010("").replace("<camera>", r#"<camera type="FisheyeCamera">"#))
         .expect_error("s.xml:3:3: ", "unknown camera type 'FisheyeCamera'");
 }
 
 #[test]
 fn missing_mesh_file() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<surface type="Mesh"><data>nothere.msh</data></surface>"#,
-    ))
-    .expect_error("s.xml:12:22: ", "mesh file");
+        "s.xml:12:22: ",
+        "mesh file",
+    );
 }
 
 #[test]
@@ -309,55 +320,54 @@ fn out_of_range_values() {
         .expect_error("s.xml:8:3: ", "out of range");
     Case::new(&scene_2010("").replace("16 12", "-4 12"))
         .expect_error("s.xml:8:3: ", "out of range");
-    Case::new(&scene_2010("<samples>4000000000</samples>"))
-        .expect_error("s.xml:12:1: ", "<samples> must be between");
-    Case::new(&scene_2010(
+    scene_error(
+        "<samples>4000000000</samples>",
+        "s.xml:12:1: ",
+        "<samples> must be between",
+    );
+    scene_error(
         r#"<surface type="Sphere"><radius>-1</radius></surface>"#,
-    ))
-    .expect_error("s.xml:12:24: ", "must be positive");
+        "s.xml:12:24: ",
+        "must be positive",
+    );
 }
 
 #[test]
 fn variant_specific_elements() {
-    Case::new(&scene_2010("<exposure>2</exposure>")).expect_error("s.xml:12:1: ", "2015 variant");
-    Case::new(&scene_2010(r#"<surface type="Cylinder"/>"#))
-        .expect_error("s.xml:12:1: ", "unknown surface type 'Cylinder'");
+    scene_error("<exposure>2</exposure>", "s.xml:12:1: ", "2015 variant");
+    scene_error(
+        r#"<surface type="Cylinder"/>"#,
+        "s.xml:12:1: ",
+        "unknown surface type 'Cylinder'",
+    );
 }
 
 #[test]
 fn glazed_needs_index_and_substrate() {
-    Case::new(&scene_2010(
+    scene_error(
         r#"<shader type="Glazed"><refractiveIndex>1.5</refractiveIndex></shader>"#,
-    ))
-    .expect_error("s.xml:12:1: ", "needs a <substrate>");
-    Case::new(&scene_2010(
+        "s.xml:12:1: ",
+        "needs a <substrate>",
+    );
+    scene_error(
         r#"<shader type="Glazed"><substrate type="Lambertian"/><fresnel>fast</fresnel></shader>"#,
-    ))
-    .expect_error("s.xml:12:53: ", "<fresnel> must be 'schlick' or 'exact'");
+        "s.xml:12:53: ",
+        "<fresnel> must be 'schlick' or 'exact'",
+    );
 }
 
 #[test]
 fn unknown_output_format() {
     let case = Case::new(&scene_2010(""));
     let out = case.render(&["-o", "out.jpg"]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).contains("unknown image format"),
-        "{}",
-        stderr(&out)
-    );
+    assert_exit_2_saying(&out, "unknown image format");
 }
 
 #[test]
 fn unknown_accelerator_is_a_usage_error() {
     let case = Case::new(&scene_2010(""));
     let out = case.render(&["--accel", "octree"]);
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        stderr(&out).contains("unknown accelerator 'octree'"),
-        "{}",
-        stderr(&out)
-    );
+    assert_exit_2_saying(&out, "unknown accelerator 'octree'");
 }
 
 #[test]
@@ -471,26 +481,50 @@ fn slow_scene() -> String {
     scene_2010(&body).replace("16 12", "600 400")
 }
 
+/// Starts `arbor render s.xml -q --accel list -o slow.png EXTRA...` in
+/// `case`'s folder, its stderr captured.
+fn spawn_slow_render(case: &Case, extra: &[&str]) -> std::process::Child {
+    let mut args = vec!["render", "s.xml", "-q", "--accel", "list", "-o", "slow.png"];
+    args.extend_from_slice(extra);
+    Command::new(env!("CARGO_BIN_EXE_arbor"))
+        .args(&args)
+        .current_dir(case.path())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Sends `signal` (`-INT`, `-USR1`) to `child`.
+fn signal(child: &std::process::Child, signal: &str) {
+    let status = Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+/// Interrupts `child` and checks that it reports writing no image and
+/// leaves no preview at `out`.
+fn interrupt_leaves_no_preview(child: std::process::Child, out: &Path) {
+    signal(&child, "-INT");
+    let o = child.wait_with_output().unwrap();
+    assert!(
+        stderr(&o).contains("interrupted: no image written"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!out.exists(), "the preview was left behind");
+}
+
 fn interrupt_after(
     case: &Case,
     extra: &[&str],
     wait: std::time::Duration,
 ) -> (Output, std::time::Duration) {
-    let mut args = vec!["render", "s.xml", "-q", "--accel", "list", "-o", "slow.png"];
-    args.extend_from_slice(extra);
-    let child = Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(&args)
-        .current_dir(case.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let child = spawn_slow_render(case, extra);
     std::thread::sleep(wait);
     let sent = std::time::Instant::now();
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
+    signal(&child, "-INT");
     let out = child.wait_with_output().unwrap();
     (out, sent.elapsed())
 }
@@ -625,36 +659,10 @@ fn wait_for_preview(
 fn preview_appears_while_rendering_and_goes_on_interrupt() {
     let case = Case::new(&slow_scene());
     let out = case.path().join("slow.png");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args([
-            "render",
-            "s.xml",
-            "-q",
-            "--accel",
-            "list",
-            "-o",
-            "slow.png",
-            "--preview-every",
-            "0.2",
-        ])
-        .current_dir(case.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_slow_render(&case, &["--preview-every", "0.2"]);
     let img = wait_for_preview(&mut child, &out, "finished before any preview");
     assert_eq!((img.width(), img.height()), (600, 400));
-    let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let o = child.wait_with_output().unwrap();
-    assert!(
-        stderr(&o).contains("interrupted: no image written"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(!out.exists(), "the preview was left behind");
+    interrupt_leaves_no_preview(child, &out);
     let o = case.render(&["--preview-every", "1", "-o", "x.part"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("--preview-every writes pictures"));
@@ -670,35 +678,18 @@ fn preview_appears_while_rendering_and_goes_on_interrupt() {
 fn sigusr1_writes_a_preview() {
     let case = Case::new(&slow_scene());
     let out = case.path().join("slow.png");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_arbor"))
-        .args(["render", "s.xml", "-q", "--accel", "list", "-o", "slow.png"])
-        .current_dir(case.path())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let pid = child.id().to_string();
-    let signal = |name: &str| {
-        let status = Command::new("kill").args([name, &pid]).status().unwrap();
-        assert!(status.success());
-    };
+    let mut child = spawn_slow_render(&case, &[]);
     // The handler is installed before the scene is read; give the process
     // time to get there, and check that nothing is written unasked.
     std::thread::sleep(std::time::Duration::from_millis(1500));
     assert!(child.try_wait().unwrap().is_none(), "finished too soon");
     assert!(!out.exists(), "a picture appeared before it was asked for");
-    signal("-USR1");
+    signal(&child, "-USR1");
     let img = wait_for_preview(
         &mut child,
         &out,
         "ended before writing a preview (SIGUSR1 not caught?)",
     );
     assert_eq!((img.width(), img.height()), (600, 400));
-    signal("-INT");
-    let o = child.wait_with_output().unwrap();
-    assert!(
-        stderr(&o).contains("interrupted: no image written"),
-        "{}",
-        stderr(&o)
-    );
-    assert!(!out.exists(), "the preview was left behind");
+    interrupt_leaves_no_preview(child, &out);
 }

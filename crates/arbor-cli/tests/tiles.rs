@@ -4,11 +4,12 @@
 //! error naming the part (exit status 2, no output written).
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Output;
 
 mod support;
 use support::arbor_in as arbor;
+use support::files_ending;
 
 fn ok(o: Output) -> Output {
     assert!(
@@ -184,62 +185,24 @@ fn every_merge_error_names_the_part() {
     for k in 0..3 {
         c.tile(k, 3, &format!("t{k}.part"));
     }
+    // Tile 1/3 of `xml` rendered in a folder of its own, to `out`.
+    let tile_of = |folder: &str, xml: String, out: &str| {
+        let dir = c.path().join(folder);
+        fs::create_dir(&dir).unwrap();
+        fs::write(dir.join("s.xml"), xml).unwrap();
+        fs::write(dir.join("tri.msh"), TRIANGLE_MSH).unwrap();
+        let args = ["render", "s.xml", "--quiet", "--tile", "1/3", "-o", out];
+        ok(arbor(&dir, &args));
+    };
     // The same scene with another light: a foreign part.
-    let other = c.path().join("other");
-    fs::create_dir(&other).unwrap();
-    fs::write(
-        other.join("s.xml"),
-        scene(false, 12).replace("3 4 5", "3 4 6"),
-    )
-    .unwrap();
-    fs::write(other.join("tri.msh"), TRIANGLE_MSH).unwrap();
-    ok(arbor(
-        &other,
-        &[
-            "render",
-            "s.xml",
-            "--quiet",
-            "--tile",
-            "1/3",
-            "-o",
-            "../foreign.part",
-        ],
-    ));
+    let other_light = scene(false, 12).replace("3 4 5", "3 4 6");
+    tile_of("other", other_light, "../foreign.part");
     // A bigger image of the same scene.
-    let bigger = c.path().join("bigger");
-    fs::create_dir(&bigger).unwrap();
-    fs::write(bigger.join("s.xml"), scene(false, 13)).unwrap();
-    fs::write(bigger.join("tri.msh"), TRIANGLE_MSH).unwrap();
-    ok(arbor(
-        &bigger,
-        &[
-            "render",
-            "s.xml",
-            "--quiet",
-            "--tile",
-            "1/3",
-            "-o",
-            "../big.part",
-        ],
-    ));
-    ok(c.run(&[
-        "render",
-        "s.xml",
-        "--quiet",
-        "--region",
-        "0,3,37,6",
-        "-o",
-        "overlap.part",
-    ]));
-    ok(c.run(&[
-        "render",
-        "s.xml",
-        "--quiet",
-        "--region",
-        "0,4,36,8",
-        "-o",
-        "narrow.part",
-    ]));
+    tile_of("bigger", scene(false, 13), "../big.part");
+    for (region, out) in [("0,3,37,6", "overlap.part"), ("0,4,36,8", "narrow.part")] {
+        let args = ["render", "s.xml", "--quiet", "--region", region, "-o", out];
+        ok(c.run(&args));
+    }
     let mut damaged = c.read("t1.part");
     let middle = damaged.len() / 2;
     damaged[middle] ^= 0x40;
@@ -259,47 +222,52 @@ fn every_merge_error_names_the_part() {
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
         fails(&c, &a, needles);
     };
-    check(&["t0.part", "t2.part"], &["missing tile 1 of 3"]);
-    check(
-        &["t0.part", "t1.part", "t2.part", "t3.part"],
-        &["t3.part", "missing part"],
-    );
-    check(
-        &["t0.part", "t1.part", "t2.part", "t1.part"],
-        &["t1.part", "duplicate"],
-    );
-    check(
-        &["t0.part", "t1.part", "t2.part", "copy.part"],
-        &["copy.part", "duplicate", "tile 1/3"],
-    );
-    check(
-        &["t0.part", "foreign.part", "t2.part"],
-        &["foreign.part", "foreign part", "scene"],
-    );
-    check(
-        &["t0.part", "t1.part", "big.part"],
-        &["big.part", "foreign part", "37x13"],
-    );
-    check(
-        &["t0.part", "t1.part", "t2.part", "overlap.part"],
-        &["overlap.part", "overlapping", "t0.part"],
-    );
-    check(
-        &["t0.part", "narrow.part", "t2.part"],
-        &["incomplete", "rows 4..8"],
-    );
-    check(
-        &["t0.part", "damaged.part", "t2.part"],
-        &["damaged.part", "damaged"],
-    );
-    check(
-        &["t0.part", "short.part", "t2.part"],
-        &["short.part", "damaged"],
-    );
-    check(
-        &["t0.part", "text.part", "t2.part"],
-        &["text.part", "not an arbor part"],
-    );
+    let bad_sets: [(&[&str], &[&str]); 11] = [
+        (&["t0.part", "t2.part"], &["missing tile 1 of 3"]),
+        (
+            &["t0.part", "t1.part", "t2.part", "t3.part"],
+            &["t3.part", "missing part"],
+        ),
+        (
+            &["t0.part", "t1.part", "t2.part", "t1.part"],
+            &["t1.part", "duplicate"],
+        ),
+        (
+            &["t0.part", "t1.part", "t2.part", "copy.part"],
+            &["copy.part", "duplicate", "tile 1/3"],
+        ),
+        (
+            &["t0.part", "foreign.part", "t2.part"],
+            &["foreign.part", "foreign part", "scene"],
+        ),
+        (
+            &["t0.part", "t1.part", "big.part"],
+            &["big.part", "foreign part", "37x13"],
+        ),
+        (
+            &["t0.part", "t1.part", "t2.part", "overlap.part"],
+            &["overlap.part", "overlapping", "t0.part"],
+        ),
+        (
+            &["t0.part", "narrow.part", "t2.part"],
+            &["incomplete", "rows 4..8"],
+        ),
+        (
+            &["t0.part", "damaged.part", "t2.part"],
+            &["damaged.part", "damaged"],
+        ),
+        (
+            &["t0.part", "short.part", "t2.part"],
+            &["short.part", "damaged"],
+        ),
+        (
+            &["t0.part", "text.part", "t2.part"],
+            &["text.part", "not an arbor part"],
+        ),
+    ];
+    for (parts, needles) in bad_sets {
+        check(parts, needles);
+    }
     // A bad output format is refused before reading anything.
     let o = c.run(&["merge", "t0.part", "t1.part", "t2.part", "-o", "out.jpg"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
@@ -330,10 +298,6 @@ fn bad_tile_and_region_flags() {
         assert!(stderr(&o).contains(needle), "{a:?}: {}", stderr(&o));
         assert!(!stderr(&o).contains("panicked"));
     }
-    let written: Vec<PathBuf> = fs::read_dir(c.path())
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "part" || e == "png"))
-        .collect();
+    let written = files_ending(c.path(), &["part", "png"]);
     assert!(written.is_empty(), "{written:?}");
 }

@@ -2,11 +2,12 @@
 //! ray files, checked record by record against answers worked out by hand.
 
 use std::path::{Path, PathBuf};
+use std::process::Output;
 
 use arbor_accel::AccelKind;
 
 mod support;
-use support::{arbor, s};
+use support::{arbor, s, trace_args};
 
 /// Two shapes along -z from above: triangle 0 is a small right triangle at
 /// z = 0; triangles 1 and 2 are the fan of a large quad at z = -1.
@@ -99,6 +100,21 @@ impl Fixture {
     }
 }
 
+/// Runs `arbor trace --mesh mesh --rays rays --hits hits` with `extra`
+/// arguments after them.
+fn trace(mesh: &Path, rays: &Path, hits: &Path, extra: &[&str]) -> Output {
+    arbor(&trace_args(mesh, rays, hits, extra))
+}
+
+/// Asserts that `out` is a successful run, showing its stderr otherwise.
+fn assert_success(out: &Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn scene_rays() -> Vec<Vec<u8>> {
     let inf = f32::INFINITY;
     vec![
@@ -128,21 +144,12 @@ fn closest_hits_on_known_triangles() {
     let f = Fixture::new(&scene_rays());
     for kind in AccelKind::ALL {
         let hits = f.out(&format!("{kind}.hits"));
-        let out = arbor(&[
-            "trace",
-            "--mesh",
-            s(&f.mesh),
-            "--rays",
-            s(&f.rays),
-            "--hits",
-            s(&hits),
-            "--accel",
-            kind.name(),
-            "--threads",
-            "2",
-            "--repeat",
-            "2",
-        ]);
+        let out = trace(
+            &f.mesh,
+            &f.rays,
+            &hits,
+            &["--accel", kind.name(), "--threads", "2", "--repeat", "2"],
+        );
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(out.status.success(), "{kind}: {stderr}");
         let h = read_hits(&hits);
@@ -200,21 +207,8 @@ fn closest_hits_on_known_triangles() {
 fn occlusion_answers() {
     let f = Fixture::new(&scene_rays());
     let occ = f.out("occ");
-    let out = arbor(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&f.rays),
-        "--hits",
-        s(&occ),
-        "--occluded",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = trace(&f.mesh, &f.rays, &occ, &["--occluded"]);
+    assert_success(&out);
     assert_eq!(std::fs::read(&occ).unwrap(), vec![1, 1, 0, 0, 1, 1, 0, 1]);
     let json = String::from_utf8(out.stdout).unwrap();
     assert_eq!(field(&json, "query"), "occluded");
@@ -231,11 +225,7 @@ fn msh_mesh_and_no_output_file() {
     )
     .unwrap();
     let out = arbor(&["trace", "--mesh", s(&msh), "--rays", s(&f.rays)]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_success(&out);
     let json = String::from_utf8(out.stdout).unwrap();
     assert_eq!(field(&json, "triangles"), "1");
     // Rays 0, 1 hit the triangle; the rest miss without the quad.
@@ -247,20 +237,8 @@ fn msh_mesh_and_no_output_file() {
 fn empty_ray_file_is_fine() {
     let f = Fixture::new(&[]);
     let hits = f.out("h");
-    let out = arbor(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&f.rays),
-        "--hits",
-        s(&hits),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = trace(&f.mesh, &f.rays, &hits, &[]);
+    assert_success(&out);
     assert_eq!(std::fs::read(&hits).unwrap().len(), 0);
     let json = String::from_utf8(out.stdout).unwrap();
     assert_eq!(field(&json, "rays"), "0");
@@ -271,16 +249,7 @@ fn empty_ray_file_is_fine() {
 /// and no output (or temporary) file left behind.
 fn fails(f: &Fixture, mesh: &Path, rays: &Path, extra: &[&str], expect: &str) {
     let hits = f.out("out.hits");
-    let mut args = vec![
-        "trace",
-        "--mesh",
-        s(mesh),
-        "--rays",
-        s(rays),
-        "--hits",
-        s(&hits),
-    ];
-    args.extend_from_slice(extra);
+    let args = trace_args(mesh, rays, &hits, extra);
     let out = arbor(&args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
@@ -306,33 +275,28 @@ fn bad_input_exits_2_without_output() {
         "missing.obj: cannot read the mesh file",
     );
 
-    let bad = f.out("bad.obj");
-    std::fs::write(&bad, "v 0 0 0\nv 1 0 0\n\nf 1 2 0\n").unwrap();
-    fails(
-        &f,
-        &bad,
-        &f.rays,
-        &[],
-        "bad.obj:4: vertex index 0 is invalid",
-    );
-
-    let bad = f.out("bad.msh");
-    std::fs::write(
-        &bad,
-        "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n7\n",
-    )
-    .unwrap();
-    fails(
-        &f,
-        &bad,
-        &f.rays,
-        &[],
-        "bad.msh:16: vertex index 7 is out of range",
-    );
-
-    let huge = f.out("huge.msh");
-    std::fs::write(&huge, "2000000000\n2000000000\nvertices\n").unwrap();
-    fails(&f, &huge, &f.rays, &[], "huge.msh:2:");
+    let bad_meshes = [
+        (
+            "bad.obj",
+            "v 0 0 0\nv 1 0 0\n\nf 1 2 0\n",
+            "bad.obj:4: vertex index 0 is invalid",
+        ),
+        (
+            "bad.msh",
+            "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n7\n",
+            "bad.msh:16: vertex index 7 is out of range",
+        ),
+        (
+            "huge.msh",
+            "2000000000\n2000000000\nvertices\n",
+            "huge.msh:2:",
+        ),
+    ];
+    for (name, text, expect) in bad_meshes {
+        let bad = f.out(name);
+        std::fs::write(&bad, text).unwrap();
+        fails(&f, &bad, &f.rays, &[], expect);
+    }
 
     let odd = f.out("odd.rays");
     std::fs::write(&odd, [0u8; 33]).unwrap();
@@ -360,15 +324,7 @@ fn bad_input_exits_2_without_output() {
 fn unwritable_output_exits_2() {
     let f = Fixture::new(&scene_rays());
     let hits = f.out("no/such/dir/out.hits");
-    let out = arbor(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&f.rays),
-        "--hits",
-        s(&hits),
-    ]);
+    let out = trace(&f.mesh, &f.rays, &hits, &[]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("cannot write: the folder"));
 }
@@ -380,15 +336,7 @@ fn failed_run_keeps_an_existing_output_intact() {
     std::fs::write(&hits, b"previous").unwrap();
     let odd = f.out("odd.rays");
     std::fs::write(&odd, [0u8; 31]).unwrap();
-    let out = arbor(&[
-        "trace",
-        "--mesh",
-        s(&f.mesh),
-        "--rays",
-        s(&odd),
-        "--hits",
-        s(&hits),
-    ]);
+    let out = trace(&f.mesh, &odd, &hits, &[]);
     assert_eq!(out.status.code(), Some(2));
     assert_eq!(std::fs::read(&hits).unwrap(), b"previous");
 }
@@ -439,21 +387,13 @@ fn every_accelerator_agrees_with_the_list_on_a_shared_mesh() {
     let f = Fixture::new(&rays_around(&mesh, 4000));
     let run = |kind: AccelKind, occluded: bool| {
         let out = f.out(&format!("{kind}.{occluded}"));
-        let mut args = vec![
-            "trace",
-            "--mesh",
-            s(&mesh),
-            "--rays",
-            s(&f.rays),
-            "--hits",
-            s(&out),
-            "--accel",
-            kind.name(),
-        ];
-        if occluded {
-            args.push("--occluded");
-        }
-        let result = arbor(&args);
+        let query: &[&str] = if occluded { &["--occluded"] } else { &[] };
+        let result = trace(
+            &mesh,
+            &f.rays,
+            &out,
+            &[&["--accel", kind.name()], query].concat(),
+        );
         assert!(
             result.status.success(),
             "{kind}: {}",

@@ -13,10 +13,9 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
-use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use arbor::surface::Surface;
-use arbor::tracer::Tracer;
-use arbor_accel::AccelKind;
+use arbor::tracer::{Tracer, TracerOptions};
 
 /// Sets every mesh's `soft_terminator` under `surfaces`.
 fn set_soft(surfaces: &mut [Surface], soft: bool) {
@@ -47,8 +46,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for soft in [false, true] {
         let mut s = scene.clone();
         set_soft(&mut s.surfaces, soft);
-        let flat = Flattened::new(&s, DEFAULT_MAX_PLACEMENTS)?;
-        let tracer = Tracer::from_flattened(flat, AccelKind::DEFAULT);
+        let flat = FlattenedScene::new(&s, DEFAULT_MAX_PLACEMENTS)?;
+        let tracer = Tracer::build(flat, &TracerOptions::default());
         let film = arbor::render::render(&s, &tracer, &|_| {}, &AtomicBool::new(false))
             .expect("not cancelled");
         halves.push(film.to_rgb8(s.variant));

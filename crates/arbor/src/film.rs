@@ -122,16 +122,20 @@ pub enum ImageFormat {
 impl ImageFormat {
     /// The format for `path`'s extension (case-insensitive).
     pub fn from_path(path: &Path) -> Result<ImageFormat, WriteError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase());
-        match ext.as_deref() {
+        match lowercase_extension(path).as_deref() {
             Some("png") => Ok(ImageFormat::Png),
             Some("exr") => Ok(ImageFormat::Exr),
             _ => Err(WriteError::UnknownFormat(path.to_path_buf())),
         }
     }
+}
+
+/// `path`'s extension in lower case, for choosing a file format whatever
+/// the case of its name.
+pub fn lowercase_extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
 }
 
 /// Why an image could not be written.

@@ -15,7 +15,7 @@
 //!   its own space, and each placement is one transform referring to it.
 //!   Instances of instances are composed down to single placements of the
 //!   geometry they hold, so the renderer sees exactly two levels (see
-//!   [`Flattened`]). Memory follows the unique geometry plus one small
+//!   [`FlattenedScene`]). Memory follows the unique geometry plus one small
 //!   record per placement.
 
 use crate::hash_map::HashMap;
@@ -24,6 +24,7 @@ use std::sync::Arc;
 use arbor_accel::{Aabb, Vec3};
 use glam::{DMat4, DVec2, DVec3};
 
+use crate::ray::Ray;
 use crate::scene::{Scene, Variant};
 use crate::shader::Shader;
 use crate::surface::{box_, cylinder, sphere, triangle, Candidate, Surface, Transform};
@@ -120,9 +121,13 @@ pub struct Hit<'a> {
     pub shader: &'a Shader,
 }
 
-/// The flattened scene: primitives with their world bounds.
+/// Flattened geometry in one space: primitives (each with its shader and
+/// transform, if any), the meshes they index and their bounds. A
+/// [`FlattenedScene`] holds one for the world and one per shared geometry
+/// (in that geometry's own space); [`FlatGeometry::new`] makes the whole
+/// scene one, every instance copied.
 #[derive(Clone, Debug)]
-pub struct FlatScene {
+pub struct FlatGeometry {
     variant: Variant,
     primitives: Vec<Primitive>,
     meshes: Vec<FlatMesh>,
@@ -138,12 +143,12 @@ pub struct FlatScene {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SingularTransform;
 
-impl FlatScene {
+impl FlatGeometry {
     /// Flattens `scene`'s surface hierarchy completely: every instance is
     /// expanded into its own copy of the geometry, baked like any other leaf.
-    /// The reference for [`Flattened`], which keeps instances shared.
-    pub fn new(scene: &Scene) -> Result<FlatScene, SingularTransform> {
-        let mut flat = FlatScene::empty(scene.variant);
+    /// The reference for [`FlattenedScene`], which keeps instances shared.
+    pub fn new(scene: &Scene) -> Result<FlatGeometry, SingularTransform> {
+        let mut flat = FlatGeometry::empty(scene.variant);
         let mut result = Ok(());
         for surface in &scene.surfaces {
             surface.for_each_leaf(DMat4::IDENTITY, &mut |leaf, m| {
@@ -157,8 +162,8 @@ impl FlatScene {
         Ok(flat)
     }
 
-    fn empty(variant: Variant) -> FlatScene {
-        FlatScene {
+    fn empty(variant: Variant) -> FlatGeometry {
+        FlatGeometry {
             variant,
             primitives: Vec::new(),
             meshes: Vec::new(),
@@ -205,7 +210,7 @@ impl FlatScene {
         self.primitives.is_empty()
     }
 
-    /// World-space bounds of primitive `i`.
+    /// Bounds of primitive `i` in this geometry's space.
     pub fn bounds(&self, i: usize) -> (DVec3, DVec3) {
         self.bounds[i]
     }
@@ -435,43 +440,39 @@ impl FlatScene {
         }
     }
 
-    /// The exact `f64` intersection of primitive `i` with the world ray
-    /// `o + t d`, `t` in `(tmin, tmax)` (closed for 2015 triangles).
-    pub fn intersect(
-        &self,
-        i: usize,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-    ) -> Option<Candidate> {
+    /// The exact `f64` intersection of primitive `i` with `ray` (in this
+    /// scene's space), `t` in the ray's `(tmin, tmax)` (closed for 2015
+    /// triangles).
+    pub fn intersect(&self, i: usize, ray: &Ray) -> Option<Candidate> {
         let prim = &self.primitives[i];
         let is2015 = self.variant == Variant::Cornell2015;
-        let (o, d) = match self.transform(prim.transform) {
-            Some(t) => (t.point_to_object(o), t.vector_to_object(d)),
-            None => (o, d),
+        let object_ray = match self.transform(prim.transform) {
+            Some(t) => ray.with_line(
+                t.point_to_object(ray.origin),
+                t.vector_to_object(ray.direction),
+            ),
+            None => *ray,
         };
+        let ray = &object_ray;
         match prim.shape {
             Shape::Sphere { center, radius } => {
-                sphere::intersect(center, radius, o, d, tmin, tmax, self.variant).map(|t| {
-                    Candidate {
-                        t,
-                        aux: DVec3::ZERO,
-                    }
+                sphere::intersect(center, radius, ray, self.variant).map(|t| Candidate {
+                    t,
+                    aux: DVec3::ZERO,
                 })
             }
             Shape::Box { min, max } => {
-                box_::intersect(min, max, o, d, tmin, tmax).map(|(t, n)| Candidate { t, aux: n })
+                box_::intersect(min, max, ray).map(|(t, n)| Candidate { t, aux: n })
             }
             Shape::Cylinder {
                 center,
                 radius,
                 height,
-            } => cylinder::intersect(center, radius, height, o, d, tmin, tmax)
+            } => cylinder::intersect(center, radius, height, ray)
                 .map(|(t, n)| Candidate { t, aux: n }),
             Shape::Triangle { mesh, index } => {
                 let (_, p) = self.triangle(mesh, index);
-                triangle::intersect(p, o, d, tmin, tmax, is2015).map(|(t, b, g)| Candidate {
+                triangle::intersect(p, ray, is2015).map(|(t, b, g)| Candidate {
                     t,
                     aux: DVec3::new(b, g, 0.0),
                 })
@@ -479,12 +480,13 @@ impl FlatScene {
         }
     }
 
-    /// The full hit record for a candidate found by [`FlatScene::intersect`]
+    /// The full hit record for a candidate found by [`FlatGeometry::intersect`]
     /// on the same ray.
-    pub fn hit(&self, i: usize, o: DVec3, d: DVec3, c: Candidate) -> Hit<'_> {
+    pub fn hit(&self, i: usize, ray: &Ray, c: Candidate) -> Hit<'_> {
         let prim = &self.primitives[i];
         let is2015 = self.variant == Variant::Cornell2015;
         let xf = self.transform(prim.transform);
+        let (o, d) = (ray.origin, ray.direction);
         let (oo, od) = match xf {
             Some(t) => (t.point_to_object(o), t.vector_to_object(d)),
             None => (o, d),
@@ -612,7 +614,7 @@ pub fn to_f32_box(min: DVec3, max: DVec3, pad: f64) -> Aabb {
 pub struct Placement {
     /// World to the geometry's space.
     pub inverse: glam::DAffine3,
-    /// Index into [`Flattened::shared`].
+    /// Index into [`FlattenedScene::shared`].
     pub geometry: u32,
 }
 
@@ -645,7 +647,7 @@ impl std::fmt::Display for FlattenError {
             }
             FlattenError::TooManyPlacements { count, limit } => write!(
                 f,
-                "the scene places shared surfaces {count} times; the limit is {limit} (raise it with --max-instances)"
+                "the scene places shared surfaces {count} times; the limit is {limit}"
             ),
         }
     }
@@ -666,30 +668,30 @@ pub const DEFAULT_MAX_PLACEMENTS: u64 = 1 << 22;
 /// what is placed once, shared geometry for what is placed more often, and
 /// the placements.
 #[derive(Clone, Debug)]
-pub struct Flattened {
+pub struct FlattenedScene {
     /// Geometry placed once, in world space.
-    pub world: FlatScene,
+    pub world: FlatGeometry,
     /// Geometry placed more than once, each in its own space.
-    pub shared: Vec<FlatScene>,
+    pub shared: Vec<FlatGeometry>,
     /// Every placement of shared geometry.
     pub placements: Vec<Placement>,
-    /// With [`Flattened::bounded`]: the placements that are whole top-level
+    /// With [`FlattenedScene::bounded`]: the placements that are whole top-level
     /// objects (the lecture's bounded surfaces), by index into `placements`.
     pub objects: Vec<u32>,
 }
 
-impl Flattened {
-    /// Flattens like [`Flattened::new`], but keeps every top-level surface
+impl FlattenedScene {
+    /// Flattens like [`FlattenedScene::new`], but keeps every top-level surface
     /// together as one object: its geometry becomes its own shared geometry,
-    /// placed once (identity) and listed in [`Flattened::objects`], so that
+    /// placed once (identity) and listed in [`FlattenedScene::objects`], so that
     /// the tracer can wrap it in a bounding volume (the lecture's bounded
     /// surface: skip the whole object when the ray misses its volume).
-    pub fn bounded(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
-        let mut out = Flattened::of_surfaces(&[], scene.variant, max_placements)?;
+    pub fn bounded(scene: &Scene, max_placements: u64) -> Result<FlattenedScene, FlattenError> {
+        let mut out = FlattenedScene::of_surfaces(&[], scene.variant, max_placements)?;
         for surface in &scene.surfaces {
             // One surface at a time, borrowed: copying the scene for each
             // (as this once did) made `--bvol` quadratic in the surfaces.
-            let part = Flattened::of_surfaces(
+            let part = FlattenedScene::of_surfaces(
                 std::slice::from_ref(surface),
                 scene.variant,
                 max_placements,
@@ -716,17 +718,28 @@ impl Flattened {
     /// Flattens `scene`, keeping multiply-placed surfaces shared; fails
     /// before allocating when more than `max_placements` placements would
     /// result.
-    pub fn new(scene: &Scene, max_placements: u64) -> Result<Flattened, FlattenError> {
-        Flattened::of_surfaces(&scene.surfaces, scene.variant, max_placements)
+    pub fn new(scene: &Scene, max_placements: u64) -> Result<FlattenedScene, FlattenError> {
+        FlattenedScene::of_surfaces(&scene.surfaces, scene.variant, max_placements)
     }
 
-    /// [`Flattened::new`] of the top-level `surfaces` of a scene of
+    /// A completely flattened scene ([`FlatGeometry::new`]): everything in
+    /// world space, no shared geometry.
+    pub fn from_world(world: FlatGeometry) -> FlattenedScene {
+        FlattenedScene {
+            world,
+            shared: Vec::new(),
+            placements: Vec::new(),
+            objects: Vec::new(),
+        }
+    }
+
+    /// [`FlattenedScene::new`] of the top-level `surfaces` of a scene of
     /// `variant` (all that flattening reads of a scene).
     fn of_surfaces(
         surfaces: &[Surface],
         variant: Variant,
         max_placements: u64,
-    ) -> Result<Flattened, FlattenError> {
+    ) -> Result<FlattenedScene, FlattenError> {
         let uses = placement_counts(surfaces);
         // Placements are made for each shared definition holding geometry,
         // once per path that reaches it.
@@ -743,8 +756,8 @@ impl Flattened {
         let mut builder = Builder {
             uses,
             shared_index: HashMap::default(),
-            out: Flattened {
-                world: FlatScene::empty(variant),
+            out: FlattenedScene {
+                world: FlatGeometry::empty(variant),
                 shared: Vec::new(),
                 placements: Vec::with_capacity(total as usize),
                 objects: Vec::new(),
@@ -764,7 +777,7 @@ impl Flattened {
 
     /// Primitives dropped for non-finite coordinates (world and shared).
     pub fn dropped_primitives(&self) -> usize {
-        self.world.dropped() + self.shared.iter().map(FlatScene::dropped).sum::<usize>()
+        self.world.dropped() + self.shared.iter().map(FlatGeometry::dropped).sum::<usize>()
     }
 
     /// Primitives as placed (world plus each placement's geometry).
@@ -842,7 +855,7 @@ fn placement_counts(roots: &[Surface]) -> HashMap<usize, (u64, Arc<Surface>)> {
 struct Builder {
     uses: HashMap<usize, (u64, Arc<Surface>)>,
     shared_index: HashMap<usize, Option<u32>>,
-    out: Flattened,
+    out: FlattenedScene,
 }
 
 impl Builder {
@@ -890,14 +903,14 @@ impl Builder {
         }
     }
 
-    /// The index of `s`'s own geometry in [`Flattened::shared`] (flattened in
+    /// The index of `s`'s own geometry in [`FlattenedScene::shared`] (flattened in
     /// its own space on first use), or `None` when it holds only instances.
     fn shared_geometry(&mut self, s: &Arc<Surface>) -> Result<Option<u32>, FlattenError> {
         if let Some(&index) = self.shared_index.get(&key(s)) {
             return Ok(index);
         }
         let index = if has_direct_geometry(s) {
-            let mut flat = FlatScene::empty(self.out.world.variant);
+            let mut flat = FlatGeometry::empty(self.out.world.variant);
             add_direct_leaves(&mut flat, s, DMat4::IDENTITY)?;
             flat.finish();
             self.out.shared.push(flat);
@@ -910,7 +923,11 @@ impl Builder {
     }
 }
 
-fn add_direct_leaves(flat: &mut FlatScene, s: &Surface, m: DMat4) -> Result<(), SingularTransform> {
+fn add_direct_leaves(
+    flat: &mut FlatGeometry,
+    s: &Surface,
+    m: DMat4,
+) -> Result<(), SingularTransform> {
     match s {
         Surface::Group(g) => {
             let m = m * g.transform;

@@ -9,13 +9,11 @@
 use std::path::Path;
 
 use arbor_accel::RayCounts;
-use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::camera::PreparedCamera;
 use crate::film::{write_png, WriteError};
-use crate::render::sample_uv;
-use crate::scene::{Scene, Variant};
+use crate::render::camera_ray;
+use crate::scene::Scene;
 use crate::tracer::Tracer;
 
 /// The traversal cost of every pixel's camera rays.
@@ -54,7 +52,6 @@ impl CostMap {
 pub fn primary_cost(scene: &Scene, tracer: &Tracer) -> CostMap {
     let camera = scene.camera.prepare();
     let s = scene.samples_per_side;
-    let tmin = camera_tmin(scene.variant);
     let (w, h) = (scene.width, scene.height);
     let cost: Vec<f64> = (0..h)
         .into_par_iter()
@@ -64,8 +61,8 @@ pub fn primary_cost(scene: &Scene, tracer: &Tracer) -> CostMap {
                 let mut counts = RayCounts::default();
                 for a in 0..s {
                     for b in 0..s {
-                        let (o, d) = camera_ray(scene, camera, col, row, a, b);
-                        tracer.closest_counted(o, d, tmin, f64::INFINITY, &mut counts);
+                        let ray = camera_ray(scene, camera, col, row, a, b);
+                        tracer.closest_counted(&ray, &mut counts);
                     }
                 }
                 (counts.nodes + counts.tests) as f64 / (s * s).max(1) as f64
@@ -77,29 +74,6 @@ pub fn primary_cost(scene: &Scene, tracer: &Tracer) -> CostMap {
         height: h,
         cost,
     }
-}
-
-/// The `tmin` of camera rays, as the integrator sets it: 2010 camera rays
-/// start at 0, 2015 ones at its epsilon.
-pub fn camera_tmin(variant: Variant) -> f64 {
-    match variant {
-        Variant::Cornell2010 => 0.0,
-        Variant::Cornell2015 => 1e-6,
-    }
-}
-
-/// The camera ray (origin, direction) of sample `(a, b)` of pixel
-/// `(column, row)`, as the renderer casts it.
-pub fn camera_ray(
-    scene: &Scene,
-    camera: &PreparedCamera,
-    column: u32,
-    row: u32,
-    a: u32,
-    b: u32,
-) -> (DVec3, DVec3) {
-    let (u, v) = sample_uv(scene, column, row, a, b);
-    camera.ray(u, v)
 }
 
 /// Matplotlib's viridis at nine evenly spaced stops (perceptually uniform,

@@ -9,17 +9,16 @@
 //! ```
 //! use std::sync::atomic::AtomicBool;
 //!
-//! use arbor::flatten::Flattened;
-//! use arbor::tracer::Tracer;
-//! use arbor_accel::AccelKind;
+//! use arbor::flatten::FlattenedScene;
+//! use arbor::tracer::{Tracer, TracerOptions};
 //!
 //! // The built-in classroom (what `arbor render` shows without a scene),
 //! // made small so the example runs quickly.
 //! let mut scene = arbor::default_scene::classroom();
 //! (scene.width, scene.height) = (32, 20);
 //! // Flatten the scene graph (instances stay shared) and accelerate it.
-//! let flat = Flattened::new(&scene, arbor::flatten::DEFAULT_MAX_PLACEMENTS)?;
-//! let tracer = Tracer::from_flattened(flat, AccelKind::DEFAULT);
+//! let flat = FlattenedScene::new(&scene, arbor::flatten::DEFAULT_MAX_PLACEMENTS)?;
+//! let tracer = Tracer::build(flat, &TracerOptions::default());
 //! // Render every pixel, with no progress report and no way to cancel.
 //! let film = arbor::render::render(&scene, &tracer, &|_| {}, &AtomicBool::new(false))
 //!     .expect("not cancelled");
@@ -37,6 +36,7 @@ pub mod heatmap;
 pub mod light;
 pub mod load;
 pub mod partial;
+pub mod ray;
 pub mod render;
 pub mod scene;
 pub mod shader;

@@ -175,12 +175,10 @@ mod tests {
 mod image_tests {
     use std::sync::atomic::AtomicBool;
 
-    use arbor_accel::AccelKind;
-
     use super::*;
-    use crate::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+    use crate::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
     use crate::render::{render_region, render_region_with, Region};
-    use crate::tracer::Tracer;
+    use crate::tracer::{Tracer, TracerOptions};
 
     /// Counting goes through a different monomorphisation of the integrator;
     /// the pixels must not notice.
@@ -189,8 +187,8 @@ mod image_tests {
         // The classroom has Lambertian, Phong, a glass globe and a glazed
         // ball, so every ray kind is traced.
         let scene = crate::default_scene::classroom();
-        let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
-        let tracer = Tracer::from_flattened(flat, AccelKind::DEFAULT);
+        let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+        let tracer = Tracer::build(flat, &TracerOptions::default());
         let region = Region {
             x0: 0,
             y0: 0,

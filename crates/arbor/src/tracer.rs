@@ -40,14 +40,16 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+// The accelerators' `f32` ray, which traversal uses; the queries take `f64` [`Ray`]s.
+use arbor_accel::Ray as TraversalRay;
 use arbor_accel::{
-    Aabb, Accel, AccelKind, Accelerator, BoundingSphere, Counters, NoCounters, Obb, Ray, RayCounts,
-    Vec3,
+    Aabb, Accel, AccelKind, Accelerator, BoundingSphere, Counters, NoCounters, Obb, RayCounts, Vec3,
 };
 use glam::{DAffine3, DVec3};
 use rayon::prelude::*;
 
-use crate::flatten::{to_f32_box, FlatScene, Flattened, Hit, Placement};
+use crate::flatten::{to_f32_box, FlatGeometry, FlattenedScene, Hit, Placement};
+use crate::ray::Ray;
 use crate::surface::Candidate;
 
 /// Relative size of the box pad, see the module documentation.
@@ -113,8 +115,9 @@ impl Frame {
     /// The `f32` ray for traversal, starting where the `f64` ray enters the
     /// padded bounds, and that entry parameter `t0`; `None` when the ray
     /// misses them.
-    fn f32_ray(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<(Ray, f64)> {
+    fn f32_ray(&self, ray: &Ray) -> Option<(TraversalRay, f64)> {
         let (lo, hi) = self.bounds?;
+        let (o, d, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
         let inv = d.recip();
         let a = (lo - o) * inv;
         let b = (hi - o) * inv;
@@ -126,8 +129,8 @@ impl Frame {
         if t0.partial_cmp(&far.min(tmax)).is_none_or(|o| o.is_gt()) {
             return None;
         }
-        let start = o + t0 * d;
-        let ray = Ray::new(
+        let start = ray.at(t0);
+        let ray = TraversalRay::new(
             Vec3::new(start.x as f32, start.y as f32, start.z as f32),
             Vec3::new(d.x as f32, d.y as f32, d.z as f32),
             // tmin relative to the shifted origin (zero or negative), rounded down.
@@ -149,13 +152,13 @@ fn beats(t: f64, prim: u32, best: Option<(u32, f64)>) -> bool {
 
 /// One level: geometry in one space with its acceleration structure.
 struct Level {
-    scene: FlatScene,
+    scene: FlatGeometry,
     accel: Accel,
     frame: Frame,
 }
 
 impl Level {
-    fn new(scene: FlatScene, kind: AccelKind) -> Level {
+    fn new(scene: FlatGeometry, kind: AccelKind) -> Level {
         let boxes: Vec<_> = (0..scene.len()).map(|i| scene.bounds(i)).collect();
         let frame = Frame::new(&boxes);
         let accel = Accel::build(kind, &frame.boxes(&boxes));
@@ -170,17 +173,16 @@ impl Level {
     /// up to `cull` (a known hit elsewhere); `cull >= tmax` offers all.
     fn closest<C: Counters>(
         &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
+        ray: &Ray,
         cull: f64,
         counters: &mut C,
     ) -> Option<(u32, Candidate)> {
-        let (ray, t0) = self.frame.f32_ray(o, d, tmin, tmax.min(cull))?;
+        let (ray32, t0) = self
+            .frame
+            .f32_ray(&ray.with_interval(ray.tmin, ray.tmax.min(cull)))?;
         let mut best: Option<(u32, Candidate)> = None;
-        self.accel.closest(&ray, counters, |prim, _| {
-            let c = self.scene.intersect(prim as usize, o, d, tmin, tmax)?;
+        self.accel.closest(&ray32, counters, |prim, _| {
+            let c = self.scene.intersect(prim as usize, ray)?;
             if c.t > cull || !beats(c.t, prim, best.map(|(p, b)| (p, b.t))) {
                 return None;
             }
@@ -190,21 +192,12 @@ impl Level {
         best
     }
 
-    fn occluded<C: Counters>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-        counters: &mut C,
-    ) -> bool {
-        let Some((ray, _)) = self.frame.f32_ray(o, d, tmin, tmax) else {
+    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        let Some((ray32, _)) = self.frame.f32_ray(ray) else {
             return false;
         };
-        self.accel.occluded(&ray, counters, |prim, _| {
-            self.scene
-                .intersect(prim as usize, o, d, tmin, tmax)
-                .is_some()
+        self.accel.occluded(&ray32, counters, |prim, _| {
+            self.scene.intersect(prim as usize, ray).is_some()
         })
     }
 }
@@ -294,7 +287,7 @@ impl FittedVolume {
         }
     }
 
-    fn hit(&self, ray: &Ray) -> bool {
+    fn hit(&self, ray: &TraversalRay) -> bool {
         match self {
             FittedVolume::Sphere(s) => s.intersect(ray).is_some(),
             FittedVolume::Aabb(b) => b.intersect(ray, ray.inv_dir()).is_some(),
@@ -315,9 +308,40 @@ pub struct VolumeStats {
     pub saved: AtomicU64,
 }
 
+/// How [`Tracer::build`] builds; [`Default`] is what `arbor render` builds
+/// without options.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TracerOptions {
+    /// The acceleration structure of both levels (`--accel`).
+    pub accel: AccelKind,
+    /// A bounding volume around each object of [`FlattenedScene::bounded`],
+    /// tested before anything inside it (`--bvol`); `None` for none. A
+    /// flattening without objects ([`FlattenedScene::new`]) gets none either way.
+    pub bounding_volume: Option<BoundingVolumeKind>,
+}
+
+impl Default for TracerOptions {
+    fn default() -> Self {
+        TracerOptions {
+            accel: AccelKind::DEFAULT,
+            bounding_volume: None,
+        }
+    }
+}
+
+impl TracerOptions {
+    /// The default options with structures of `accel`.
+    pub fn with_accel(accel: AccelKind) -> TracerOptions {
+        TracerOptions {
+            accel,
+            ..TracerOptions::default()
+        }
+    }
+}
+
 /// A flattened scene with its acceleration structures: ray queries in `f64`.
 pub struct Tracer {
-    world: FlatScene,
+    world: FlatGeometry,
     shared: Vec<Level>,
     placements: Vec<Placement>,
     top: Accel,
@@ -330,45 +354,39 @@ pub struct Tracer {
 }
 
 impl Tracer {
-    /// Builds structures of `kind` over a completely flattened scene (no
-    /// shared geometry).
-    pub fn new(scene: FlatScene, kind: AccelKind) -> Tracer {
-        Tracer::from_flattened(
-            Flattened {
-                world: scene,
-                shared: Vec::new(),
-                placements: Vec::new(),
-                objects: Vec::new(),
-            },
-            kind,
-        )
+    /// Builds the structures `options` ask for over `flat`: one per shared
+    /// geometry, one over the world primitives and the placements, and the
+    /// bounding volumes of its objects if asked for.
+    pub fn build(flat: FlattenedScene, options: &TracerOptions) -> Tracer {
+        let objects = flat.objects.clone();
+        let mut tracer = Tracer::build_levels(flat, options.accel);
+        if let Some(volume) = options.bounding_volume {
+            tracer.volumes = tracer.fit_volumes(&objects, volume);
+        }
+        tracer
     }
 
-    /// Like [`Tracer::from_flattened`], and wraps each object of
-    /// [`Flattened::bounded`] in a bounding volume of `volume`, tested before
-    /// anything inside it.
-    pub fn from_flattened_bounded(
-        flat: Flattened,
-        kind: AccelKind,
+    /// Per placement, the bounding volume of kind `volume` around it if it
+    /// is one of `objects`.
+    fn fit_volumes(
+        &self,
+        objects: &[u32],
         volume: BoundingVolumeKind,
-    ) -> Tracer {
-        let objects = flat.objects.clone();
-        let mut tracer = Tracer::from_flattened(flat, kind);
+    ) -> Vec<Option<FittedVolume>> {
         let mut volumes: Vec<Option<FittedVolume>> =
-            (0..tracer.placements.len()).map(|_| None).collect();
-        for o in objects {
-            let level = &tracer.shared[tracer.placements[o as usize].geometry as usize];
+            (0..self.placements.len()).map(|_| None).collect();
+        for &o in objects {
+            let level = &self.shared[self.placements[o as usize].geometry as usize];
             // Objects are placed by the identity: their boxes are world boxes.
             let boxes: Vec<Aabb> = (0..level.scene.len())
                 .map(|i| {
                     let (a, b) = level.scene.bounds(i);
-                    to_f32_box(a, b, tracer.frame.pad)
+                    to_f32_box(a, b, self.frame.pad)
                 })
                 .collect();
             volumes[o as usize] = Some(FittedVolume::fit(volume, &boxes));
         }
-        tracer.volumes = volumes;
-        tracer
+        volumes
     }
 
     /// The bounding volumes of `--bvol`, each with the placement it gates
@@ -388,7 +406,7 @@ impl Tracer {
 
     /// Whether placement `p` may be entered by `ray` (the top-level `f32`
     /// ray): always, unless a bounding volume gates it and the ray misses it.
-    fn enters(&self, p: usize, ray: &Ray) -> bool {
+    fn enters(&self, p: usize, ray: &TraversalRay) -> bool {
         let Some(Some(volume)) = self.volumes.get(p) else {
             return true;
         };
@@ -404,9 +422,8 @@ impl Tracer {
         false
     }
 
-    /// Builds structures of `kind` at both levels: one per shared geometry,
-    /// and one over the world primitives and the placements.
-    pub fn from_flattened(flat: Flattened, kind: AccelKind) -> Tracer {
+    /// Builds structures of `kind` at both levels, without bounding volumes.
+    fn build_levels(flat: FlattenedScene, kind: AccelKind) -> Tracer {
         let shared: Vec<Level> = flat
             .shared
             .into_par_iter()
@@ -441,7 +458,7 @@ impl Tracer {
     }
 
     /// The world-space primitives.
-    pub fn scene(&self) -> &FlatScene {
+    pub fn scene(&self) -> &FlatGeometry {
         &self.world
     }
 
@@ -476,56 +493,45 @@ impl Tracer {
                 .sum::<usize>()
     }
 
-    /// The nearest hit of `o + t d` with `t` in `(tmin, tmax)`.
-    pub fn closest(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> Option<Hit<'_>> {
-        self.closest_counted(o, d, tmin, tmax, &mut NoCounters)
+    /// The nearest hit on `ray`.
+    pub fn closest(&self, ray: &Ray) -> Option<Hit<'_>> {
+        self.closest_counted(ray, &mut NoCounters)
     }
 
     /// [`Tracer::closest`], counting traversal work (both levels) into `counters`.
     pub fn closest_counted<C: SplitCounters>(
         &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
+        ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit<'_>> {
-        self.closest_identified(o, d, tmin, tmax, counters)
-            .map(|(_, hit)| hit)
+        self.closest_identified(ray, counters).map(|(_, hit)| hit)
     }
 
     /// [`Tracer::closest_counted`], also naming the primitive hit.
     pub fn closest_identified<C: SplitCounters>(
         &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
+        ray: &Ray,
         counters: &mut C,
     ) -> Option<(HitId, Hit<'_>)> {
-        let (ray, t0) = self.frame.f32_ray(o, d, tmin, tmax)?;
+        let (ray32, t0) = self.frame.f32_ray(ray)?;
         let n_world = self.world.len() as u32;
         let mut best: Option<(u32, Found)> = None;
         let mut inner = C::default();
-        self.top.closest(&ray, counters, |prim, ray32| {
+        self.top.closest(&ray32, counters, |prim, top_ray| {
             let best_so_far = best.map(|(p, f)| (p, f.t()));
             let found = if prim < n_world {
-                let c = self.world.intersect(prim as usize, o, d, tmin, tmax)?;
+                let c = self.world.intersect(prim as usize, ray)?;
                 Found::World(prim, c)
             } else {
                 let placement = prim - n_world;
-                if !self.enters(placement as usize, ray32) {
+                if !self.enters(placement as usize, top_ray) {
                     return None;
                 }
                 let p = &self.placements[placement as usize];
-                let (lo, ld) = (
-                    p.inverse.transform_point3(o),
-                    p.inverse.transform_vector3(d),
-                );
-                let cull = best_so_far.map_or(tmax, |(_, t)| t);
+                let cull = best_so_far.map_or(ray.tmax, |(_, t)| t);
                 let level = &self.shared[p.geometry as usize];
                 inner.enter_placement(placement);
-                let (local, candidate) = level.closest(lo, ld, tmin, tmax, cull, &mut inner)?;
+                let (local, candidate) = level.closest(&local_ray(p, ray), cull, &mut inner)?;
                 Found::Shared {
                     placement,
                     prim: local,
@@ -552,26 +558,21 @@ impl Tracer {
         Some((
             id,
             match found {
-                Found::World(prim, c) => self.world.hit(prim as usize, o, d, c),
+                Found::World(prim, c) => self.world.hit(prim as usize, ray, c),
                 Found::Shared {
                     placement,
                     prim,
                     candidate,
                 } => {
                     let p = &self.placements[placement as usize];
-                    let (lo, ld) = (
-                        p.inverse.transform_point3(o),
-                        p.inverse.transform_vector3(d),
-                    );
                     let local = self.shared[p.geometry as usize].scene.hit(
                         prim as usize,
-                        lo,
-                        ld,
+                        &local_ray(p, ray),
                         candidate,
                     );
                     Hit {
                         t: candidate.t,
-                        point: o + candidate.t * d,
+                        point: ray.at(candidate.t),
                         normal: p.normal_to_world(local.normal),
                         uv: local.uv,
                         color: local.color,
@@ -588,43 +589,38 @@ impl Tracer {
         ))
     }
 
-    /// Whether anything lies on `o + t d` with `t` in `(tmin, tmax)`.
-    pub fn occluded(&self, o: DVec3, d: DVec3, tmin: f64, tmax: f64) -> bool {
-        self.occluded_counted(o, d, tmin, tmax, &mut NoCounters)
+    /// Whether anything lies on `ray`.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_counted(ray, &mut NoCounters)
     }
 
     /// [`Tracer::occluded`], counting traversal work into `counters`.
-    pub fn occluded_counted<C: SplitCounters>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-        counters: &mut C,
-    ) -> bool {
-        let Some((ray, _)) = self.frame.f32_ray(o, d, tmin, tmax) else {
+    pub fn occluded_counted<C: SplitCounters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        let Some((ray32, _)) = self.frame.f32_ray(ray) else {
             return false;
         };
         let n_world = self.world.len() as u32;
         let mut inner = C::default();
-        let hit = self.top.occluded(&ray, counters, |prim, _| {
+        let hit = self.top.occluded(&ray32, counters, |prim, _| {
             if prim < n_world {
-                return self
-                    .world
-                    .intersect(prim as usize, o, d, tmin, tmax)
-                    .is_some();
+                return self.world.intersect(prim as usize, ray).is_some();
             }
             let p = &self.placements[(prim - n_world) as usize];
-            let (lo, ld) = (
-                p.inverse.transform_point3(o),
-                p.inverse.transform_vector3(d),
-            );
             inner.enter_placement(prim - n_world);
-            self.shared[p.geometry as usize].occluded(lo, ld, tmin, tmax, &mut inner)
+            self.shared[p.geometry as usize].occluded(&local_ray(p, ray), &mut inner)
         });
         counters.merge(inner);
         hit
     }
+}
+
+/// `ray` in the space of the geometry `p` places: transformed once, not
+/// renormalised, so `t` names the same point in both spaces.
+fn local_ray(p: &Placement, ray: &Ray) -> Ray {
+    ray.with_line(
+        p.inverse.transform_point3(ray.origin),
+        p.inverse.transform_vector3(ray.direction),
+    )
 }
 
 /// The world box of a local box under `m`: the box of its 8 transformed corners.

@@ -11,9 +11,9 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use arbor::compare::compare_rgb8;
-use arbor::flatten::FlatScene;
+use arbor::flatten::{FlatGeometry, FlattenedScene};
 use arbor::render::render;
-use arbor::tracer::Tracer;
+use arbor::tracer::{Tracer, TracerOptions};
 use arbor::xml::load_scene;
 use arbor_accel::AccelKind;
 
@@ -42,7 +42,10 @@ fn scenes(shared: &std::path::Path) -> Vec<PathBuf> {
 
 fn render_bytes(path: &std::path::Path, kind: AccelKind) -> (Vec<u8>, u32, u32) {
     let scene = load_scene(path).unwrap_or_else(|e| panic!("{e}")).scene;
-    let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), kind);
+    let tracer = Tracer::build(
+        FlattenedScene::from_world(FlatGeometry::new(&scene).unwrap()),
+        &TracerOptions::with_accel(kind),
+    );
     let film = render(&scene, &tracer, &|_| {}, &AtomicBool::new(false)).unwrap();
     (film.to_rgb8(scene.variant), scene.width, scene.height)
 }

@@ -5,12 +5,12 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use arbor::film::Film;
-use arbor::flatten::FlatScene;
+use arbor::flatten::{FlatGeometry, FlattenedScene};
+use arbor::ray::Ray;
 use arbor::render::render;
 use arbor::scene::{Scene, Variant};
-use arbor::tracer::Tracer;
+use arbor::tracer::{Tracer, TracerOptions};
 use arbor::xml::parse_scene;
-use arbor_accel::AccelKind;
 use glam::DVec3;
 
 fn load(xml: &str) -> Scene {
@@ -20,7 +20,10 @@ fn load(xml: &str) -> Scene {
 }
 
 fn film(scene: &Scene) -> Film {
-    let tracer = Tracer::new(FlatScene::new(scene).unwrap(), AccelKind::DEFAULT);
+    let tracer = Tracer::build(
+        FlattenedScene::from_world(FlatGeometry::new(scene).unwrap()),
+        &TracerOptions::default(),
+    );
     render(scene, &tracer, &|_| {}, &AtomicBool::new(false)).unwrap()
 }
 
@@ -145,9 +148,14 @@ fn soft_terminator_offsets_shadow_rays_of_smooth_meshes_only() {
             two_sided: true,
             soft_terminator: soft,
         }));
-        let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::DEFAULT);
+        let tracer = Tracer::build(
+            FlattenedScene::from_world(FlatGeometry::new(&scene).unwrap()),
+            &TracerOptions::default(),
+        );
         let o = DVec3::new(0.3, 0.3, 1.0);
-        let hit = tracer.closest(o, DVec3::NEG_Z, 0.0, f64::INFINITY).unwrap();
+        let hit = tracer
+            .closest(&Ray::new(o, DVec3::NEG_Z, 0.0, f64::INFINITY))
+            .unwrap();
         hit.shadow_offset
     };
     let lifted = offset(true, bulge.clone());
@@ -203,7 +211,7 @@ fn group_transform_order_differs_between_variants() {
     let group = r#"<surface type="Group"><translate>1 0 0</translate><scale>2 2 2</scale><surface type="Sphere"><radius>0.1</radius></surface></surface>"#;
     let bounds = |camera: &str| {
         let s = load(&format!("<scene>{camera}<image>2 2</image>{group}</scene>"));
-        let flat = FlatScene::new(&s).unwrap();
+        let flat = FlatGeometry::new(&s).unwrap();
         let (lo, hi) = flat.bounds(0);
         (lo + hi) / 2.0
     };
@@ -224,7 +232,7 @@ fn named_values_can_be_referenced() {
         <surface type="Group"><rotate name="r">0 0 90</rotate><surface type="Box"><minPt>0 0 0</minPt><maxPt>2 1 1</maxPt></surface></surface>
         <surface type="Group"><rotate ref="r"/><surface type="Box"><minPt>0 0 0</minPt><maxPt>2 1 1</maxPt></surface></surface></scene>"#,
     );
-    let flat = FlatScene::new(&s).unwrap();
+    let flat = FlatGeometry::new(&s).unwrap();
     assert_eq!(flat.len(), 2);
     let (a, b) = (flat.bounds(0), flat.bounds(1));
     assert!(close(a.0, b.0, 1e-12) && close(a.1, b.1, 1e-12));
@@ -239,16 +247,29 @@ fn transformed_sphere_is_the_analytic_ellipsoid() {
     let s = load(
         r#"<scene><camera/><image>2 2</image><surface type="Group"><scale>2 1 1</scale><surface type="Sphere"/></surface></scene>"#,
     );
-    let tracer = Tracer::new(FlatScene::new(&s).unwrap(), AccelKind::DEFAULT);
+    let tracer = Tracer::build(
+        FlattenedScene::from_world(FlatGeometry::new(&s).unwrap()),
+        &TracerOptions::default(),
+    );
     let hit = tracer
-        .closest(DVec3::new(10.0, 0.0, 0.0), DVec3::NEG_X, 0.0, f64::INFINITY)
+        .closest(&Ray::new(
+            DVec3::new(10.0, 0.0, 0.0),
+            DVec3::NEG_X,
+            0.0,
+            f64::INFINITY,
+        ))
         .unwrap();
     assert!((hit.point.x - 2.0).abs() < 1e-12);
     assert!(close(hit.normal, DVec3::X, 1e-12));
     // Off-axis: normal from the inverse transpose, (x/4, y, z) normalised.
     let y = 0.6;
     let hit = tracer
-        .closest(DVec3::new(10.0, y, 0.0), DVec3::NEG_X, 0.0, f64::INFINITY)
+        .closest(&Ray::new(
+            DVec3::new(10.0, y, 0.0),
+            DVec3::NEG_X,
+            0.0,
+            f64::INFINITY,
+        ))
         .unwrap();
     let x = 2.0 * (1.0 - y * y).sqrt();
     assert!((hit.point.x - x).abs() < 1e-12);
@@ -318,18 +339,23 @@ fn non_finite_vertices_are_dropped_not_traced() {
         two_sided: false,
         soft_terminator: false,
     }));
-    let flat = FlatScene::new(&scene).unwrap();
+    let flat = FlatGeometry::new(&scene).unwrap();
     assert_eq!((flat.len(), flat.dropped()), (2, 1));
-    let tracer = Tracer::new(flat, AccelKind::DEFAULT);
-    let hit = tracer.closest(
+    let tracer = Tracer::build(FlattenedScene::from_world(flat), &TracerOptions::default());
+    let hit = tracer.closest(&Ray::new(
         DVec3::new(0.25, 0.25, 1.0),
         DVec3::NEG_Z,
         0.0,
         f64::INFINITY,
-    );
+    ));
     assert!((hit.unwrap().t - 1.0).abs() < 1e-12);
     assert!(tracer
-        .closest(DVec3::new(2.0, 2.0, 1.0), DVec3::NEG_Z, 0.0, f64::INFINITY)
+        .closest(&Ray::new(
+            DVec3::new(2.0, 2.0, 1.0),
+            DVec3::NEG_Z,
+            0.0,
+            f64::INFINITY
+        ))
         .is_none());
 }
 
@@ -361,10 +387,16 @@ fn two_sided_meshes_turn_the_normal_to_the_ray() {
             two_sided,
             soft_terminator: false,
         }));
-        let tracer = Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::DEFAULT);
+        let tracer = Tracer::build(
+            FlattenedScene::from_world(FlatGeometry::new(&scene).unwrap()),
+            &TracerOptions::default(),
+        );
         let o = DVec3::new(0.25, 0.25, from_z);
         let d = DVec3::new(0.0, 0.0, -from_z.signum());
-        tracer.closest(o, d, 0.0, f64::INFINITY).unwrap().normal
+        tracer
+            .closest(&Ray::new(o, d, 0.0, f64::INFINITY))
+            .unwrap()
+            .normal
     };
     let lambert = Shader::default_lambertian;
     let glass = || Shader::Glass {

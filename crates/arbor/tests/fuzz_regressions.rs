@@ -99,55 +99,40 @@ fn gltf_error(name: &str) -> String {
     }
 }
 
-/// A buffer URI that percent-decodes to bytes that are not UTF-8 (`%ff`):
-/// the `gltf` crate unwraps the decoding and panicked.
-#[test]
-fn gltf_buffer_uri_not_utf8() {
-    let m = gltf_error("uri-not-utf8");
-    assert!(m.contains("percent-encoded UTF-8"), "{m}");
+/// One test per kept glTF crash, named for what it was: the file's error
+/// names what is wrong.
+macro_rules! gltf_errors {
+    ($($(#[$doc:meta])* $test:ident: $name:literal => $needle:literal,)*) => {
+        $(
+            $(#[$doc])*
+            #[test]
+            fn $test() {
+                let m = gltf_error($name);
+                assert!(m.contains($needle), "{m}");
+            }
+        )*
+    };
 }
 
-/// A primitive whose POSITION names a missing accessor: `gltf-json`'s
-/// validation indexed the accessors with it before checking the index.
-#[test]
-fn gltf_position_accessor_missing() {
-    let m = gltf_error("position-accessor-missing");
-    assert!(
-        m.contains("POSITION names an accessor that does not exist"),
-        "{m}"
-    );
-}
-
-/// A buffer view stride of 4 bytes under VEC3 float positions: the crate's
-/// reader asserted that each element slice holds 12 bytes.
-#[test]
-fn gltf_stride_shorter_than_element() {
-    let m = gltf_error("stride-shorter-than-element");
-    assert!(m.contains("stride shorter"), "{m}");
-}
-
-/// Float indices: the crate's index reader has `unreachable!()` for them.
-#[test]
-fn gltf_float_indices() {
-    let m = gltf_error("float-indices");
-    assert!(m.contains("not unsigned integer scalars"), "{m}");
-}
-
-/// VEC2 positions: read as VEC3 (a debug assertion in the crate, garbage
-/// positions in a release build).
-#[test]
-fn gltf_vec2_positions() {
-    let m = gltf_error("vec2-positions");
-    assert!(m.contains("not VEC3 of floats"), "{m}");
-}
-
-/// A POSITION accessor with count 0: the crate's reader computes
-/// `count - 1` (an overflow panic in a debug build); the primitive is
-/// empty now and skipped, and the file has nothing else to render.
-#[test]
-fn gltf_empty_position_accessor() {
-    let m = gltf_error("empty-position-accessor");
-    assert!(m.contains("no triangles"), "{m}");
+gltf_errors! {
+    /// A buffer URI that percent-decodes to bytes that are not UTF-8 (`%ff`):
+    /// the `gltf` crate unwraps the decoding and panicked.
+    gltf_buffer_uri_not_utf8: "uri-not-utf8" => "percent-encoded UTF-8",
+    /// A primitive whose POSITION names a missing accessor: `gltf-json`'s
+    /// validation indexed the accessors with it before checking the index.
+    gltf_position_accessor_missing: "position-accessor-missing" => "POSITION names an accessor that does not exist",
+    /// A buffer view stride of 4 bytes under VEC3 float positions: the crate's
+    /// reader asserted that each element slice holds 12 bytes.
+    gltf_stride_shorter_than_element: "stride-shorter-than-element" => "stride shorter",
+    /// Float indices: the crate's index reader has `unreachable!()` for them.
+    gltf_float_indices: "float-indices" => "not unsigned integer scalars",
+    /// VEC2 positions: read as VEC3 (a debug assertion in the crate, garbage
+    /// positions in a release build).
+    gltf_vec2_positions: "vec2-positions" => "not VEC3 of floats",
+    /// A POSITION accessor with count 0: the crate's reader computes
+    /// `count - 1` (an overflow panic in a debug build); the primitive is
+    /// empty now and skipped, and the file has nothing else to render.
+    gltf_empty_position_accessor: "empty-position-accessor" => "no triangles",
 }
 
 /// An external buffer that is not a regular file (a device that never

@@ -4,10 +4,11 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use arbor::flatten::{FlatScene, FlattenError, Flattened};
+use arbor::flatten::{FlatGeometry, FlattenError, FlattenedScene};
+use arbor::ray::Ray;
 use arbor::render::render;
 use arbor::scene::Scene;
-use arbor::tracer::Tracer;
+use arbor::tracer::{Tracer, TracerOptions};
 use arbor::xml::parse_scene;
 use arbor_accel::AccelKind;
 use glam::DVec3;
@@ -33,8 +34,14 @@ fn pixels(scene: &Scene, tracer: &Tracer) -> Vec<u8> {
 /// The same picture with instances shared (two levels) and copied (one level).
 fn assert_same_picture(scene: &Scene) {
     for kind in [AccelKind::DEFAULT, AccelKind::List] {
-        let shared = Tracer::from_flattened(Flattened::new(scene, 1 << 20).unwrap(), kind);
-        let copied = Tracer::new(FlatScene::new(scene).unwrap(), kind);
+        let shared = Tracer::build(
+            FlattenedScene::new(scene, 1 << 20).unwrap(),
+            &TracerOptions::with_accel(kind),
+        );
+        let copied = Tracer::build(
+            FlattenedScene::from_world(FlatGeometry::new(scene).unwrap()),
+            &TracerOptions::with_accel(kind),
+        );
         assert!(pixels(scene, &shared) == pixels(scene, &copied), "{kind}");
     }
 }
@@ -63,7 +70,7 @@ const NESTED: &str = r#"<defs>
 #[test]
 fn nested_definitions_share_geometry_and_render_like_copies() {
     let scene = load(&format!("{HEAD}{NESTED}"));
-    let flat = Flattened::new(&scene, 100).unwrap();
+    let flat = FlattenedScene::new(&scene, 100).unwrap();
     // One shared geometry (the pair: 2 primitives), placed 2 rows x 3 = 6 times;
     // the row holds no geometry of its own; the floor stays in world space.
     assert_eq!(flat.shared.len(), 1);
@@ -77,7 +84,7 @@ fn nested_definitions_share_geometry_and_render_like_copies() {
 fn placement_limit_is_checked_before_allocating() {
     let scene = load(&format!("{HEAD}{NESTED}"));
     assert_eq!(
-        Flattened::new(&scene, 5).unwrap_err(),
+        FlattenedScene::new(&scene, 5).unwrap_err(),
         FlattenError::TooManyPlacements { count: 6, limit: 5 }
     );
 }
@@ -88,7 +95,7 @@ fn named_rendered_surface_can_be_placed_again() {
         r#"{HEAD}<surface type="Sphere" name="ball"><radius>0.7</radius></surface>
         <surface type="Group"><translate>2 0 0</translate><surface ref="ball"/></surface></scene>"#
     ));
-    let flat = Flattened::new(&scene, 100).unwrap();
+    let flat = FlattenedScene::new(&scene, 100).unwrap();
     assert_eq!((flat.world.len(), flat.placements.len()), (0, 2));
     assert_same_picture(&scene);
 }
@@ -99,7 +106,7 @@ fn definition_used_once_is_baked_into_world_space() {
         r#"{HEAD}<defs><surface type="Sphere" name="ball"/></defs>
         <surface type="Group"><translate>1 0 0</translate><surface ref="ball"/></surface></scene>"#
     ));
-    let flat = Flattened::new(&scene, 100).unwrap();
+    let flat = FlattenedScene::new(&scene, 100).unwrap();
     assert_eq!(
         (flat.world.len(), flat.shared.len(), flat.placements.len()),
         (1, 0, 0)
@@ -143,9 +150,17 @@ fn mirrored_placement_keeps_outward_normals() {
         <surface type="Group"><translate>3 0 0</translate><scale>-1 1 1</scale><surface ref="ball"/></surface>
         <surface type="Group"><translate>-3 0 0</translate><surface ref="ball"/></surface></scene>"#
     ));
-    let tracer = Tracer::from_flattened(Flattened::new(&scene, 100).unwrap(), AccelKind::DEFAULT);
+    let tracer = Tracer::build(
+        FlattenedScene::new(&scene, 100).unwrap(),
+        &TracerOptions::default(),
+    );
     let hit = tracer
-        .closest(DVec3::new(10.0, 0.0, 0.0), DVec3::NEG_X, 0.0, f64::INFINITY)
+        .closest(&Ray::new(
+            DVec3::new(10.0, 0.0, 0.0),
+            DVec3::NEG_X,
+            0.0,
+            f64::INFINITY,
+        ))
         .unwrap();
     assert!((hit.point.x - 4.0).abs() < 1e-12);
     assert!((hit.normal - DVec3::X).length() < 1e-12, "{:?}", hit.normal);
@@ -154,7 +169,7 @@ fn mirrored_placement_keeps_outward_normals() {
 #[test]
 fn the_default_scene_is_instanced_and_renders_like_copies() {
     let scene = arbor::default_scene::classroom();
-    let flat = Flattened::new(&scene, 100).unwrap();
+    let flat = FlattenedScene::new(&scene, 100).unwrap();
     assert_eq!(flat.placements.len(), 12);
     let mut small = scene.clone();
     small.width = 64;
@@ -176,7 +191,10 @@ fn bounded_surfaces_skip_work_and_change_nothing() {
     ));
     let reference = pixels(
         &scene,
-        &Tracer::new(FlatScene::new(&scene).unwrap(), AccelKind::List),
+        &Tracer::build(
+            FlattenedScene::from_world(FlatGeometry::new(&scene).unwrap()),
+            &TracerOptions::with_accel(AccelKind::List),
+        ),
     );
     for volume in [
         BoundingVolumeKind::Sphere,
@@ -184,9 +202,15 @@ fn bounded_surfaces_skip_work_and_change_nothing() {
         BoundingVolumeKind::Obb,
     ] {
         for kind in [AccelKind::List, AccelKind::DEFAULT] {
-            let flat = Flattened::bounded(&scene, 100).unwrap();
+            let flat = FlattenedScene::bounded(&scene, 100).unwrap();
             assert_eq!(flat.objects.len(), 3);
-            let tracer = Tracer::from_flattened_bounded(flat, kind, volume);
+            let tracer = Tracer::build(
+                flat,
+                &TracerOptions {
+                    accel: kind,
+                    bounding_volume: Some(volume),
+                },
+            );
             assert!(pixels(&scene, &tracer) == reference, "{volume:?} {kind}");
             let v = tracer.volume_stats();
             let tests = v.tests.load(std::sync::atomic::Ordering::Relaxed);

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use arbor::flatten::{Flattened, DEFAULT_MAX_PLACEMENTS};
+use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use arbor::light::Light;
 use arbor::load::LoadError;
 use arbor::load::{frame, load_model, load_model_scene};
@@ -96,7 +96,7 @@ fn the_good_files_load_and_frame() {
             floor.max.y < lo.y && floor.max.y > lo.y - (hi - lo).length(),
             "{file}"
         );
-        Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+        FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
     }
 }
 
@@ -429,7 +429,7 @@ fn gltf_instancing_cameras_and_broken_files() {
     assert_eq!(model.stats.shared_meshes, 1);
     assert_eq!(model.stats.unique_triangles, 1);
     assert_eq!(model.stats.instanced_triangles, 3);
-    let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
     assert_eq!(flat.placements.len(), 3);
     // The child's placement composes its parent's translation and its own scale.
     let (lo, hi) = frame::bounds(&model.surfaces).unwrap();
@@ -489,7 +489,7 @@ fn the_engine_keeps_its_shared_meshes() {
     let s = model.stats;
     assert_eq!((s.nodes, s.meshes, s.shared_meshes), (82, 29, 14));
     assert!(s.instanced_triangles > 120_000 && s.unique_triangles < s.instanced_triangles);
-    let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
     // Every placement of a shared mesh stays a placement, not a copy.
     assert_eq!(flat.instanced_primitives() - 12, s.instanced_triangles);
     assert_eq!(flat.unique_primitives() - 12, s.unique_triangles);

@@ -52,6 +52,12 @@ pub fn assimp_models() -> Option<PathBuf> {
     present(dir, "apt-get install assimp-testmodels", required())
 }
 
+/// The assimp test model at `relative` (under [`assimp_models`]), or
+/// `None` as [`assimp_models`] says.
+pub fn assimp_model(relative: &str) -> Option<PathBuf> {
+    assimp_models().map(|models| models.join(relative))
+}
+
 /// Whether absent test data fails the test (`ARBOR_REQUIRE_TEST_DATA=1`)
 /// rather than skipping it.
 pub fn required() -> bool {

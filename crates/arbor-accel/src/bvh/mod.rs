@@ -25,7 +25,9 @@ use glam::{BVec4A, Vec3, Vec3A, Vec4};
 use crate::aabb::widen_exit;
 use crate::counters::{count_node, skip_node};
 use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
-use crate::{Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, Primitives, Ray};
+use crate::{
+    Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, PrimitiveId, Primitives, Ray,
+};
 
 /// Depth from which every builder stops optimising and splits by count, so
 /// that no tree is deeper than `FORCE_MEDIAN_DEPTH + 32` levels whatever the
@@ -120,7 +122,7 @@ pub struct BvhParams {
     pub intersection_cost: f32,
     /// Primitives a leaf tests together (the binned SAH builder): a leaf or
     /// split side of `n` primitives costs `ceil(n / leaf_block)` tests, as
-    /// for [`crate::TriangleBvh`], which tests four triangles for the price
+    /// for `bvh-wide` over triangles, which tests four triangles for the price
     /// of one. Default 1 (one test per primitive).
     pub leaf_block: usize,
     /// Bins per axis of the binned SAH builder, rounded up to 8, 16 or 32
@@ -383,7 +385,7 @@ impl Accelerator for Bvh {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
         offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
@@ -457,7 +459,7 @@ impl Accelerator for Bvh {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
@@ -622,7 +624,7 @@ mod tests {
     fn closest<A: Accelerator>(a: &A, m: &TriangleMesh, r: &Ray) -> Option<(f32, u32)> {
         let mut best = None;
         a.closest(r, &mut NoCounters, |p, ray| {
-            let h = m.intersect(p as usize, ray)?;
+            let h = m.intersect(p, ray)?;
             best = Some((h.t, p));
             Some(h.t)
         });
@@ -656,7 +658,7 @@ mod tests {
                     closest(&list, &m, &r).map(|h| h.0),
                     "{b:?} ray {k}"
                 );
-                let test = |p: u32, ray: &Ray| m.intersect(p as usize, ray).is_some();
+                let test = |p: u32, ray: &Ray| m.intersect(p, ray).is_some();
                 let ob = bvh.occluded(&r, &mut NoCounters, test);
                 let ol = list.occluded(&r, &mut NoCounters, test);
                 assert_eq!(ob, ol);
@@ -685,9 +687,7 @@ mod tests {
         let bvh = Bvh::build(&m, BvhBuilder::BinnedSah, &p);
         let mut c = RayCounts::default();
         let r = Ray::new(Vec3::new(0.5, 0.5, 1.0), -Vec3::Z, 0.0, f32::INFINITY);
-        bvh.closest(&r, &mut c, |i, ray| {
-            m.intersect(i as usize, ray).map(|h| h.t)
-        });
+        bvh.closest(&r, &mut c, |i, ray| m.intersect(i, ray).map(|h| h.t));
         assert!(c.tests < 40, "{c:?}");
     }
 

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 
 use super::topdown::{self, Median};
 use super::{BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
+use crate::morton::MortonGrid;
 use crate::Aabb;
 
 /// Marks a temporary node that is a single primitive.
@@ -27,35 +28,15 @@ struct Tmp {
     right: u32,
 }
 
-/// Spreads the low 21 bits of `x` to every third bit.
-fn spread(x: u64) -> u64 {
-    let mut x = x & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    x = (x | x << 2) & 0x1249_2492_4924_9249;
-    x
-}
-
 /// Builds the tree; returns nodes, primitive ids in leaf order and depth.
 pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>, usize) {
     let n = refs.len();
     let cb = refs.iter().fold(Aabb::EMPTY, |c, r| c.grow(r.centroid()));
-    let ext = cb.max - cb.min;
-    let scale = glam::Vec3::select(
-        ext.cmpgt(glam::Vec3::ZERO),
-        glam::Vec3::splat(2_097_151.0) / ext,
-        glam::Vec3::ZERO,
-    );
+    let grid = MortonGrid::new(&cb);
     let mut keyed: Vec<(u64, u32)> = refs
         .par_iter()
         .enumerate()
-        .map(|(i, r)| {
-            let q = ((r.centroid() - cb.min) * scale).min(glam::Vec3::splat(2_097_151.0));
-            let code = spread(q.x as u64) | spread(q.y as u64) << 1 | spread(q.z as u64) << 2;
-            (code, i as u32)
-        })
+        .map(|(i, r)| (grid.code(r.centroid()), i as u32))
         .collect();
     // Keys are unique (the index breaks ties), so the order is deterministic.
     keyed.par_sort_unstable();
@@ -187,17 +168,5 @@ fn gather(tmp: &[Tmp], k: usize, out: &mut Vec<u32>) {
             stack.push(t.right as usize);
             stack.push(t.left as usize);
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn morton_spreads_bits() {
-        assert_eq!(spread(1), 1);
-        assert_eq!(spread(2), 8);
-        assert_eq!(spread(0x1f_ffff).count_ones(), 21);
     }
 }

@@ -78,7 +78,7 @@ fn pack_leaves(
                 // a million for a million triangles.
                 let mut tris = [[Vec3::ZERO; 3]; LANES];
                 for (t, &p) in tris.iter_mut().zip(ids) {
-                    *t = mesh.triangle(p as usize);
+                    *t = mesh.triangle(p);
                 }
                 // `packet_of` gave this group exactly one slot per packet.
                 out.next()
@@ -130,7 +130,7 @@ impl TriangleBvh {
         let unbounded: Vec<(u32, [Vec3; 3])> = bvh
             .unbounded()
             .iter()
-            .map(|&p| (p, mesh.triangle(p as usize)))
+            .map(|&p| (p, mesh.triangle(p)))
             .collect();
         let bvh = bvh.into_leaf_storage(|first| {
             let i = leaves.partition_point(|&(f, _)| f < first);
@@ -527,7 +527,7 @@ mod tests {
         let shear = RayShear::new(ray);
         let mut best: Option<(u32, f32)> = None;
         list.closest(ray, &mut crate::NoCounters, |p, r| {
-            let [a, b, c] = mesh.triangle(p as usize);
+            let [a, b, c] = mesh.triangle(p);
             let h = intersect_triangle_sheared(r, &shear, a, b, c)?;
             if best.is_none_or(|(_, t)| h.t < t) {
                 best = Some((p, h.t));
@@ -535,7 +535,7 @@ mod tests {
             Some(h.t)
         });
         let any = list.occluded(ray, &mut crate::NoCounters, |p, r| {
-            let [a, b, c] = mesh.triangle(p as usize);
+            let [a, b, c] = mesh.triangle(p);
             intersect_triangle_sheared(r, &shear, a, b, c).is_some()
         });
         (best, any)
@@ -578,7 +578,7 @@ mod tests {
             let shear = RayShear::new(ray);
             let mut generic: Option<MeshHit> = None;
             wide.closest(ray, &mut crate::NoCounters, |p, r| {
-                let [a, b, c] = mesh.triangle(p as usize);
+                let [a, b, c] = mesh.triangle(p);
                 let hit = intersect_triangle_sheared(r, &shear, a, b, c)?;
                 if generic.is_none_or(|g| hit.t < g.hit.t) {
                     generic = Some(MeshHit { prim: p, hit });
@@ -674,7 +674,7 @@ mod tests {
                     if g.prim != w.prim {
                         // A tie: the packet's triangle lies at the same
                         // distance.
-                        let [a, b, c] = mesh.triangle(g.prim as usize);
+                        let [a, b, c] = mesh.triangle(g.prim);
                         let t = intersect_triangle_sheared(ray, &RayShear::new(ray), a, b, c)
                             .map(|h| h.t.to_bits());
                         assert_eq!(t, Some(w.hit.t.to_bits()), "{ray:?}");

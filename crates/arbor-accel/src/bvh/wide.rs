@@ -43,7 +43,9 @@ use super::lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 use super::{Bvh, BvhBuilder, BvhParams, RayBox, STACK_SIZE};
 use crate::counters::{count_node, skip_node};
 use crate::util::{offer_any, offer_closest, prefetch, widen_up};
-use crate::{Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, Primitives, Ray, Vec3};
+use crate::{
+    Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, PrimitiveId, Primitives, Ray, Vec3,
+};
 
 /// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
@@ -209,7 +211,7 @@ impl Accelerator for WideBvh {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
         offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
@@ -226,7 +228,7 @@ impl Accelerator for WideBvh {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
@@ -836,7 +838,7 @@ mod tests {
                 for &p in &bvh.prims[first..first + count] {
                     c.test();
                     offered.push(p);
-                    let [a, b, cc] = mesh.triangle(p as usize);
+                    let [a, b, cc] = mesh.triangle(p);
                     if let Some(h) = intersect_triangle_sheared(r, &shear, a, b, cc) {
                         r.tmax = r.tmax.min(h.t);
                     }

@@ -310,7 +310,7 @@ pub(super) fn split_node<P: Primitives + ?Sized>(
         let (id, b) = refs[i];
         let part = |region: &Aabb| {
             prims
-                .clipped_bounds(id as usize, region)
+                .clipped_bounds(id, region)
                 .map(|c| c.intersection(&b))
                 .filter(|c| !c.is_empty())
         };
@@ -690,7 +690,7 @@ mod tests {
             let present: Vec<u32> = child.refs.iter().map(|r| r.0).collect();
             for (id, b) in &child.refs {
                 assert!(child.bounds.contains_box(b), "box leaves the node");
-                for p in samples(m.triangle(*id as usize)) {
+                for p in samples(m.triangle(*id)) {
                     if inside(&child.bounds, p) {
                         assert!(inside(b, p), "triangle {id}: {p} outside {b:?}");
                         checked += 1;
@@ -700,7 +700,7 @@ mod tests {
             // No triangle reaching into the child's interior was dropped (one
             // that only touches a face may live on the other side only).
             for id in 0..m.triangles.len() as u32 {
-                if samples(m.triangle(id as usize))
+                if samples(m.triangle(id))
                     .into_iter()
                     .any(|p| strictly_inside(&child.bounds, p))
                 {

@@ -263,24 +263,11 @@ impl KdTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::test_meshes::assert_agrees_with_list;
     use crate::{Accelerator, List, NoCounters, Ray, TriangleMesh, Vec3};
 
     fn soup() -> TriangleMesh {
-        let mut v = Vec::new();
-        let mut t = Vec::new();
-        for i in 0..400u32 {
-            let f = i as f32;
-            let c = Vec3::new(
-                (f * 0.618).fract(),
-                (f * 0.414).fract(),
-                (f * 0.732).fract(),
-            ) * 10.0;
-            v.push(c);
-            v.push(c + Vec3::new((f * 1.3).sin(), 0.5, (f * 0.7).cos()));
-            v.push(c + Vec3::new(0.3, (f * 2.1).cos(), 0.8));
-            t.push([3 * i, 3 * i + 1, 3 * i + 2]);
-        }
-        TriangleMesh::new(v, t)
+        crate::test_meshes::soup(400)
     }
 
     #[test]
@@ -299,23 +286,7 @@ mod tests {
             );
             let d = Vec3::new((f * 0.7).sin(), 1.0, (f * 0.3).cos());
             let r = Ray::new(o, d, 0.0, f32::INFINITY);
-            let mut best = [f32::INFINITY; 2];
-            kd.closest(&r, &mut NoCounters, |p, ray| {
-                let t = m.intersect(p as usize, ray)?.t;
-                best[0] = best[0].min(t);
-                Some(t)
-            });
-            list.closest(&r, &mut NoCounters, |p, ray| {
-                let t = m.intersect(p as usize, ray)?.t;
-                best[1] = best[1].min(t);
-                Some(t)
-            });
-            assert_eq!(best[0], best[1], "ray {k}");
-            let test = |p: u32, ray: &Ray| m.intersect(p as usize, ray).is_some();
-            assert_eq!(
-                kd.occluded(&r, &mut NoCounters, test),
-                list.occluded(&r, &mut NoCounters, test)
-            );
+            assert_agrees_with_list(&kd, &list, &m, &r, &format!("ray {k}"));
         }
     }
 
@@ -325,7 +296,7 @@ mod tests {
         let kd = KdTree::build(&m, &KdParams::default());
         for (b, prims) in kd.leaves() {
             for &p in prims {
-                assert!(m.clipped_bounds(p as usize, &b).is_some());
+                assert!(m.clipped_bounds(p, &b).is_some());
             }
         }
     }

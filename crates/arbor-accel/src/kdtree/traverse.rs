@@ -3,9 +3,9 @@
 use std::mem::MaybeUninit;
 
 use super::{KdNode, KdTree, STACK_SIZE};
-use crate::counters::{count_node, count_test, skip_node};
-use crate::util::{offer_any, widen_down, widen_up, Mailbox};
-use crate::{AccelStats, Accelerator, Counters, Ray};
+use crate::counters::{count_node, skip_node};
+use crate::util::{offer_any, offer_closest, widen_down, widen_up, Mailbox};
+use crate::{AccelStats, Accelerator, Counters, PrimitiveId, Ray};
 
 /// The smaller of `a` and `b`, or `a` when `b` is NaN: one `minss`
 /// (`f32::min` also handles a NaN `a`, which never occurs here, at the cost
@@ -65,11 +65,7 @@ impl KdTree {
             return;
         }
         let inv = ray.inv_dir();
-        let wide = Ray {
-            tmax: widen_up(ray.tmax),
-            ..*ray
-        };
-        let Some((t0, t1)) = self.bounds.intersect(&wide, inv) else {
+        let Some((t0, t1)) = self.bounds.intersect_widened(ray, inv) else {
             return;
         };
         // Per ray, once: origin and reciprocal direction as arrays (indexed
@@ -153,29 +149,17 @@ impl Accelerator for KdTree {
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> Option<f32>,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         let mut ray = *ray;
-        for &p in &self.unbounded {
-            count_test(counters, p);
-            if let Some(t) = hit(p, &ray) {
-                ray.tmax = ray.tmax.min(t);
-            }
-        }
+        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         // A primitive reaches into several leaves; the mailbox tests it once.
         // A hit found in one leaf may lie beyond it, in a later leaf: that is
         // fine, the walk only skips nodes that begin beyond `tmax`, so it
         // stops exactly when no unvisited region can hold a closer hit.
         let mut mailbox = Mailbox::new();
         self.walk(&mut ray, counters, |prims, ray, counters| {
-            for &p in prims {
-                if mailbox.insert(p) {
-                    count_test(counters, p);
-                    if let Some(t) = hit(p, ray) {
-                        ray.tmax = ray.tmax.min(t);
-                    }
-                }
-            }
+            mailbox.offer_closest(prims, ray, counters, &mut hit);
             false
         });
     }
@@ -183,7 +167,7 @@ impl Accelerator for KdTree {
     fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
     where
         C: Counters,
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         if offer_any(&self.unbounded, ray, counters, &mut hit) {
             return true;
@@ -192,16 +176,8 @@ impl Accelerator for KdTree {
         let mut mailbox = Mailbox::new();
         let mut walk_ray = *ray;
         self.walk(&mut walk_ray, counters, |prims, r, counters| {
-            for &p in prims {
-                if mailbox.insert(p) {
-                    count_test(counters, p);
-                    if hit(p, r) {
-                        found = true;
-                        return true;
-                    }
-                }
-            }
-            false
+            found = mailbox.offer_any(prims, r, counters, &mut hit);
+            found
         });
         found
     }

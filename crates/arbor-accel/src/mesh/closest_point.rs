@@ -8,11 +8,9 @@
 //! their distance exceeds the best by more than any rounding could
 //! account for).
 
-use glam::DVec3;
-use rayon::prelude::*;
-
 use super::{MeshAccel, PER_TASK};
-use crate::{Bvh, Vec3};
+use crate::{morton, Bvh, PrimitiveId, Vec3};
+use glam::DVec3;
 
 /// The closest point of a mesh to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,7 +19,7 @@ pub struct ClosestPoint {
     pub point: Vec3,
     /// The triangle it lies on (of several at the same distance, the one
     /// with the smallest index).
-    pub prim: u32,
+    pub prim: PrimitiveId,
     /// Barycentric weight of the triangle's second vertex.
     pub u: f32,
     /// Barycentric weight of its third vertex: the point is
@@ -59,7 +57,9 @@ impl MeshAccel {
     }
 
     /// [`MeshAccel::closest_point`] for every point with its own
-    /// `max_distances[i]`, in parallel.
+    /// `max_distances[i]`, in parallel (answered in Morton order of the
+    /// points, so that neighbours share what is in cache; returned in the
+    /// points' order).
     ///
     /// # Panics
     /// If the two slices differ in length.
@@ -71,12 +71,9 @@ impl MeshAccel {
         assert_eq!(points.len(), max_distances.len(), "one limit per point");
         // Built before the parallel loop, so no worker waits on another's build.
         self.point_bvh();
-        points
-            .par_iter()
-            .zip(max_distances.par_iter())
-            .with_min_len(PER_TASK)
-            .map(|(&p, &max)| self.closest_point(p, max))
-            .collect()
+        morton::answer_in_order(points, PER_TASK, |i| {
+            self.closest_point(points[i], max_distances[i])
+        })
     }
 }
 

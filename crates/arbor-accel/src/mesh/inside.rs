@@ -11,10 +11,8 @@
 
 use std::collections::HashMap;
 
-use rayon::prelude::*;
-
 use super::{MeshAccel, PER_TASK};
-use crate::{Ray, Vec3};
+use crate::{morton, Ray, Vec3};
 
 /// The direction of the inside test's ray: fixed, so answers are
 /// deterministic; away from the axes and diagonals, so that rays from
@@ -33,13 +31,10 @@ impl MeshAccel {
         self.count(&Ray::new(p, INSIDE_DIRECTION, 0.0, f32::INFINITY)) % 2 == 1
     }
 
-    /// [`MeshAccel::contains`] for every point, in parallel.
+    /// [`MeshAccel::contains`] for every point, in parallel (in Morton order
+    /// of the points, as [`MeshAccel::closest_point_batch`]).
     pub fn contains_batch(&self, points: &[Vec3]) -> Vec<bool> {
-        points
-            .par_iter()
-            .with_min_len(PER_TASK)
-            .map(|&p| self.contains(p))
-            .collect()
+        morton::answer_in_order(points, PER_TASK, |i| self.contains(points[i]))
     }
 
     /// The distance from `p` to the mesh, negative inside: the sign is
@@ -60,13 +55,11 @@ impl MeshAccel {
         }
     }
 
-    /// [`MeshAccel::signed_distance`] for every point, in parallel.
+    /// [`MeshAccel::signed_distance`] for every point, in parallel (in Morton
+    /// order of the points, as [`MeshAccel::closest_point_batch`]).
     pub fn signed_distance_batch(&self, points: &[Vec3]) -> Vec<f32> {
-        points
-            .par_iter()
-            .with_min_len(PER_TASK)
-            .map(|&p| self.signed_distance(p))
-            .collect()
+        self.point_bvh();
+        morton::answer_in_order(points, PER_TASK, |i| self.signed_distance(points[i]))
     }
 
     /// How many edges are not shared by exactly two triangles running along

@@ -20,8 +20,8 @@ use rayon::prelude::*;
 
 use crate::{
     intersect_triangle_owned, intersect_triangle_sheared, Accel, AccelKind, AccelParams,
-    AccelStats, Accelerator, Bvh, Counters, NoCounters, Ray, RayShear, TriangleBvh, TriangleHit,
-    TriangleMesh, Vec3,
+    AccelStats, Accelerator, Bvh, Counters, NoCounters, PrimitiveId, Ray, RayShear, TriangleBvh,
+    TriangleHit, TriangleMesh, Vec3,
 };
 
 pub use closest_point::ClosestPoint;
@@ -37,7 +37,7 @@ pub(crate) const PER_TASK: usize = 256;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeshHit {
     /// Index of the triangle in the mesh.
-    pub prim: u32,
+    pub prim: PrimitiveId,
     /// Distance and barycentrics.
     pub hit: TriangleHit,
 }
@@ -48,13 +48,13 @@ pub enum MeshError {
     /// A triangle names a vertex that does not exist.
     IndexOutOfRange {
         /// The triangle.
-        triangle: usize,
+        triangle: PrimitiveId,
         /// The index it holds.
         index: u32,
         /// How many vertices there are.
         vertices: usize,
     },
-    /// More triangles than a `u32` triangle index can name.
+    /// More triangles than a [`PrimitiveId`] can name.
     TooManyTriangles(usize),
 }
 
@@ -130,7 +130,7 @@ impl MeshAccel {
 
     /// The build parameters [`MeshAccel::build`] uses for `kind`: the
     /// library's defaults, except that `bvh-wide`'s SAH counts a leaf of
-    /// `n` triangles as `ceil(n / 4)` tests ([`TriangleBvh::params`]), as its
+    /// `n` triangles as `ceil(n / 4)` tests (`TriangleBvh::params`), as its
     /// leaves test four at a time.
     pub fn params(kind: AccelKind) -> AccelParams {
         let mut params = AccelParams::default();
@@ -148,10 +148,10 @@ impl MeshAccel {
         kind: AccelKind,
         params: &AccelParams,
     ) -> Result<Self, MeshError> {
-        if u32::try_from(triangles.len()).is_err() {
+        let Ok(count) = PrimitiveId::try_from(triangles.len()) else {
             return Err(MeshError::TooManyTriangles(triangles.len()));
-        }
-        for (triangle, t) in triangles.iter().enumerate() {
+        };
+        for (triangle, t) in (0..count).zip(&triangles) {
             if let Some(&index) = t.iter().find(|&&i| i as usize >= vertices.len()) {
                 return Err(MeshError::IndexOutOfRange {
                     triangle,
@@ -164,9 +164,7 @@ impl MeshAccel {
         let index = if kind == AccelKind::BvhWide {
             Index::Wide(TriangleBvh::build(&mesh, &params.bvh))
         } else {
-            let tris = (0..mesh.triangles.len())
-                .map(|i| mesh.triangle(i))
-                .collect();
+            let tris = (0..count).map(|i| mesh.triangle(i)).collect();
             Index::Generic(Accel::build_with(kind, &mesh, params), tris)
         };
         Ok(MeshAccel {
@@ -189,7 +187,7 @@ impl MeshAccel {
 
     /// The vertices of triangle `i`.
     pub fn triangle(&self, i: u32) -> [Vec3; 3] {
-        self.mesh.triangle(i as usize)
+        self.mesh.triangle(i)
     }
 
     /// The structure answering the ray queries.

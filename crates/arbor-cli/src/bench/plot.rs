@@ -10,7 +10,9 @@ use std::convert::Infallible;
 use std::path::Path;
 
 use anyhow::anyhow;
+use arbor::film::lowercase_extension;
 use arbor::heatmap::{text_width, Canvas, GLYPH_HEIGHT, VIRIDIS};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -36,11 +38,7 @@ pub enum PlotFormat {
 impl PlotFormat {
     /// The format named by `path`'s extension (any case).
     pub fn from_path(path: &Path) -> Result<PlotFormat, InputError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        match ext.as_deref() {
+        match lowercase_extension(path).as_deref() {
             Some("svg") => Ok(PlotFormat::Svg),
             Some("png") => Ok(PlotFormat::Png),
             _ => Err(InputError(format!(
@@ -85,6 +83,21 @@ fn kind_colour(k: usize) -> RGBColor {
 }
 
 /// Both charts on `root`.
+/// The axes of a bar chart: values up the side (`y_desc`), no labels or
+/// grid along the bars (they are labelled one by one).
+fn bar_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    y_desc: &str,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .x_label_formatter(&|_| String::new())
+        .y_desc(y_desc)
+        .draw()
+}
+
 fn chart<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     report: &Report,
@@ -122,13 +135,7 @@ fn chart<DB: DrawingBackend>(
         .x_label_area_size(30)
         .y_label_area_size(50)
         .build_cartesian_2d(0.0..n, 0.0..top)?;
-    speed
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(0)
-        .x_label_formatter(&|_| String::new())
-        .y_desc("Mrays/s")
-        .draw()?;
+    bar_axes(&mut speed, "Mrays/s")?;
     let width = 0.8 / kinds.len().max(1) as f64;
     for (k, kind) in kinds.iter().enumerate() {
         let colour = kind_colour(k);
@@ -169,13 +176,7 @@ fn chart<DB: DrawingBackend>(
         .x_label_area_size(30)
         .y_label_area_size(60)
         .build_cartesian_2d(0.0..n, 0.0..top)?;
-    build
-        .configure_mesh()
-        .disable_x_mesh()
-        .x_labels(0)
-        .x_label_formatter(&|_| String::new())
-        .y_desc("ms")
-        .draw()?;
+    bar_axes(&mut build, "ms")?;
     let colour = kind_colour(3);
     build.draw_series(report.results.iter().enumerate().map(|(i, r)| {
         Rectangle::new(

@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use arbor::flatten::Flattened;
+use arbor::flatten::FlattenedScene;
 use arbor::scene::Scene;
 use arbor::surface::Surface;
 use glam::DMat4;
@@ -110,7 +110,7 @@ fn rows(m: &DMat4) -> Value {
 
 /// The `scene_graph` object of `scene`, which flattened into `flat`; notes
 /// what was cut.
-pub fn scene_graph(scene: &Scene, flat: &Flattened, notes: &mut Vec<String>) -> Value {
+pub fn scene_graph(scene: &Scene, flat: &FlattenedScene, notes: &mut Vec<String>) -> Value {
     let mut g = Graph {
         nodes: Vec::new(),
         definitions: HashMap::new(),
@@ -176,7 +176,7 @@ mod tests {
     #[test]
     fn a_shared_definition_is_drawn_once_with_an_arrow_per_instance() {
         let scene = arbor::default_scene::classroom();
-        let flat = Flattened::new(&scene, 1 << 20).unwrap();
+        let flat = FlattenedScene::new(&scene, 1 << 20).unwrap();
         let mut notes = Vec::new();
         let v = scene_graph(&scene, &flat, &mut notes);
         let nodes = v["nodes"].as_array().unwrap();

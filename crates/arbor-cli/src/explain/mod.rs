@@ -121,12 +121,16 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
     if let Some(j) = &args.json {
         crate::output::check_writable(j, "--json")?;
     }
-    let mut scene = crate::render::load_input(
-        args.input.as_deref(),
-        args.up,
-        args.camera.is_some(),
-        args.quiet,
-    )?;
+    let options = arbor::render::RenderOptions {
+        model: arbor::load::ModelOptions {
+            up: args.up,
+            auto_camera: args.camera.is_some(),
+        },
+        max_placements: args.max_instances,
+        bounding_volume: args.bvol,
+        ..Default::default()
+    };
+    let mut scene = crate::render::load_input(args.input.as_deref(), &options, args.quiet)?;
     let (w, h) = picture_size(&scene, args.size);
     if (w, h) != (scene.width, scene.height) {
         crate::overrides::resize(&mut scene, w, h);
@@ -141,7 +145,7 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let flat = crate::render::flatten(&scene, args.bvol, args.max_instances)?;
+    let flat = crate::render::flatten(&scene, &options)?;
     let mut accels: Vec<AccelKind> = Vec::new();
     for &k in &args.accel {
         if !accels.contains(&k) {
@@ -150,7 +154,13 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
     }
     let mut views: Vec<View> = accels
         .iter()
-        .map(|&k| View::new(k, crate::render::tracer(flat.clone(), k, args.bvol)))
+        .map(|&k| {
+            let options = arbor::render::RenderOptions {
+                accel: k,
+                ..options
+            };
+            View::new(k, arbor::render::build_tracer(flat.clone(), &options))
+        })
         .collect();
     // The page's node numbers depend on the picks; `--ray` uses the same.
     let pick_pixels = picks::pick_pixels(&scene);
@@ -184,7 +194,7 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
 fn document(
     args: &ExplainArgs,
     scene: &Scene,
-    flat: &arbor::flatten::Flattened,
+    flat: &arbor::flatten::FlattenedScene,
     views: &[View],
     inner: &mut InnerLayouts,
     pick_pixels: (u32, Vec<(u32, u32)>),

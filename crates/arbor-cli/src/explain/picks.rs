@@ -44,7 +44,7 @@ pub fn name_visited_nodes(scene: &Scene, views: &mut [View], pixels: &[(u32, u32
     for view in views.iter_mut() {
         let named: HashSet<u32> = pixels
             .iter()
-            .flat_map(|&(x, y)| top_level_nodes(view, first_camera_ray(scene, x, y)))
+            .flat_map(|&(x, y)| top_level_nodes(view, &first_camera_ray(scene, x, y)))
             .collect();
         view.renumber(&named);
     }

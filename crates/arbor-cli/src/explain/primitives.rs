@@ -3,7 +3,7 @@
 //! top level numbers them (world primitives, then one per placement),
 //! decimated above a cap.
 
-use arbor::flatten::{FlatScene, Flattened};
+use arbor::flatten::{FlatGeometry, FlattenedScene};
 use glam::{DAffine3, DVec3};
 use serde_json::{json, Value};
 
@@ -18,7 +18,7 @@ enum Piece {
 }
 
 /// Primitive `i` of `scene` under `m` (the identity for world geometry).
-fn piece(scene: &FlatScene, i: usize, m: &DAffine3) -> Piece {
+fn piece(scene: &FlatGeometry, i: usize, m: &DAffine3) -> Piece {
     if let Some(p) = scene.triangle_corners(i) {
         return Piece::Triangle(p.map(|q| m.transform_point3(q)));
     }
@@ -51,10 +51,10 @@ fn f32s(v: DVec3) -> [f32; 3] {
 }
 
 /// The `primitives` object of `flat`.
-pub fn primitives_json(flat: &Flattened, notes: &mut Vec<String>) -> Value {
+pub fn primitives_json(flat: &FlattenedScene, notes: &mut Vec<String>) -> Value {
     let world = flat.world.len();
     // (top-level number, scene, index, placement matrix)
-    let mut all: Vec<(usize, &FlatScene, usize, DAffine3)> = (0..world)
+    let mut all: Vec<(usize, &FlatGeometry, usize, DAffine3)> = (0..world)
         .map(|i| (i, &flat.world, i, DAffine3::IDENTITY))
         .collect();
     for (p, placement) in flat.placements.iter().enumerate() {
@@ -106,6 +106,6 @@ pub fn primitives_json(flat: &Flattened, notes: &mut Vec<String>) -> Value {
 }
 
 /// Primitives as placed (each placement's geometry counted per placement).
-fn all_placed(flat: &Flattened) -> u64 {
+fn all_placed(flat: &FlattenedScene) -> u64 {
     flat.instanced_primitives()
 }

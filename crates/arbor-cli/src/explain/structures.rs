@@ -222,10 +222,9 @@ pub fn heatmap_json(scene: &Scene, view: &View, progress: &(dyn Fn(u64) + Sync))
         .flat_map_iter(|y| {
             let row: Vec<RayCounts> = (0..w)
                 .map(|x| {
-                    let (o, d, tmin) = first_camera_ray(scene, x, y);
                     let mut c = RayCounts::default();
                     view.tracer
-                        .closest_counted(o, d, tmin, f64::INFINITY, &mut c);
+                        .closest_counted(&first_camera_ray(scene, x, y), &mut c);
                     c
                 })
                 .collect();

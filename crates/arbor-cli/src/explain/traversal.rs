@@ -3,10 +3,10 @@
 
 use std::collections::HashMap;
 
+use arbor::ray::Ray;
 use arbor::scene::Scene;
 use arbor::traversal::TraversalRecord;
 use arbor_accel::{Aabb, Layout, Recorder};
-use glam::DVec3;
 use serde_json::{json, Value};
 
 use super::structures::View;
@@ -16,12 +16,11 @@ pub fn box_json(b: &Aabb) -> Value {
     json!([b.min.to_array(), b.max.to_array()])
 }
 
-/// The first camera ray of pixel `(x, y)` (row 0 at the top): origin,
-/// direction and `tmin`, as the renderer and `--heatmap` cast it.
-pub fn first_camera_ray(scene: &Scene, x: u32, y: u32) -> (DVec3, DVec3, f64) {
+/// The first camera ray of pixel `(x, y)` (row 0 at the top), as the
+/// renderer and `--heatmap` cast it.
+pub fn first_camera_ray(scene: &Scene, x: u32, y: u32) -> Ray {
     let camera = scene.camera.prepare();
-    let (o, d) = arbor::heatmap::camera_ray(scene, &camera, x, y, 0, 0);
-    (o, d, arbor::heatmap::camera_tmin(scene.variant))
+    arbor::render::camera_ray(scene, &camera, x, y, 0, 0)
 }
 
 /// Layouts of the bottom-level structures, built on first use (keyed by
@@ -50,19 +49,12 @@ fn visits_json(
         .collect()
 }
 
-/// One structure's traversal of the ray `(o, d)` from `tmin`: the object
+/// One structure's traversal of `ray`: the object
 /// of docs/explain-data.md ("One ray's traversal"), with each visit's box
 /// when `boxes`.
-pub fn structure_traversal(
-    view: &View,
-    inner: &mut InnerLayouts,
-    (o, d, tmin): (DVec3, DVec3, f64),
-    boxes: bool,
-) -> Value {
+pub fn structure_traversal(view: &View, inner: &mut InnerLayouts, ray: &Ray, boxes: bool) -> Value {
     let mut rec = TraversalRecord::default();
-    let hit = view
-        .tracer
-        .closest_identified(o, d, tmin, f64::INFINITY, &mut rec);
+    let hit = view.tracer.closest_identified(ray, &mut rec);
     let counts = rec.counts();
     let placements: Vec<Value> = rec
         .placements
@@ -98,12 +90,10 @@ pub fn structure_traversal(
     })
 }
 
-/// The layout indices of the top-level nodes the ray `(o, d)` from `tmin`
-/// visits or skips in `view`.
-pub fn top_level_nodes(view: &View, (o, d, tmin): (DVec3, DVec3, f64)) -> Vec<u32> {
+/// The layout indices of the top-level nodes `ray` visits or skips in `view`.
+pub fn top_level_nodes(view: &View, ray: &Ray) -> Vec<u32> {
     let mut rec = TraversalRecord::default();
-    view.tracer
-        .closest_counted(o, d, tmin, f64::INFINITY, &mut rec);
+    view.tracer.closest_counted(ray, &mut rec);
     rec.top
         .visits
         .iter()
@@ -122,11 +112,11 @@ pub fn pixel_traversal(
     let ray = first_camera_ray(scene, x, y);
     let structures: Vec<Value> = views
         .iter()
-        .map(|v| structure_traversal(v, inner, ray, boxes))
+        .map(|v| structure_traversal(v, inner, &ray, boxes))
         .collect();
     json!({
         "pixel": [x, y],
-        "ray": { "origin": ray.0.to_array(), "direction": ray.1.to_array() },
+        "ray": { "origin": ray.origin.to_array(), "direction": ray.direction.to_array() },
         "structures": structures,
     })
 }

@@ -2,7 +2,7 @@
 // Each test file is its own crate and uses only some of these.
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Runs the built `arbor` with `args` in the current directory.
@@ -25,4 +25,45 @@ pub fn arbor_in(dir: &Path, args: &[&str]) -> Output {
 /// A path as a command-line argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
+}
+
+/// `arbor trace --mesh MESH --rays RAYS --hits HITS EXTRA...`.
+pub fn trace_args<'a>(
+    mesh: &'a Path,
+    rays: &'a Path,
+    hits: &'a Path,
+    extra: &[&'a str],
+) -> Vec<&'a str> {
+    [
+        &[
+            "trace",
+            "--mesh",
+            s(mesh),
+            "--rays",
+            s(rays),
+            "--hits",
+            s(hits),
+        ],
+        extra,
+    ]
+    .concat()
+}
+
+/// The files in `dir` whose extension is one of `extensions`.
+pub fn files_ending(dir: &Path, extensions: &[&str]) -> Vec<PathBuf> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| {
+            p.extension()
+                .is_some_and(|e| extensions.iter().any(|x| e == *x))
+        })
+        .collect()
+}
+
+/// A temporary folder holding one file, `name`, with `contents`.
+pub fn folder_with(name: &str, contents: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join(name), contents).unwrap();
+    dir
 }

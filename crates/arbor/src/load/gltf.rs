@@ -4,14 +4,14 @@
 //! The node hierarchy becomes [`Group`]s carrying each node's matrix (TRS or
 //! given). A mesh is built once as one shared `Arc<Surface>` and placed by
 //! [`Surface::Instance`] wherever a node uses it, so a mesh used by many
-//! nodes is stored once and [`crate::flatten::Flattened`] keeps it shared.
+//! nodes is stored once and [`crate::flatten::FlattenedScene`] keeps it shared.
 //! Triangle primitives (lists, strips and fans) are read with their
 //! normals, one texture coordinate set and `COLOR_0`; points and lines are
 //! skipped with a warning. Materials become shaders as
-//! [`super::gltf_material`] maps them, with the base colour and emissive
+//! `gltf_material.rs` maps them, with the base colour and emissive
 //! textures (from a buffer view, a `data:` URI or a file beside the model;
 //! otherwise a warning) looked up through `KHR_texture_transform`; the
-//! extensions arbor reads come from the JSON ([`super::gltf_ext`]).
+//! extensions arbor reads come from the JSON (`gltf_ext.rs`).
 //! `KHR_lights_punctual` lights are placed by their nodes. The first camera
 //! met in the scene becomes ours; without one [`super::frame`] frames the
 //! model.

@@ -1,7 +1,9 @@
-//! Rendering a file as `arbor render` does, for callers that are not the
-//! command line (the Python package): load a Cornell scene or a framed
-//! model, set the size and samples, flatten, accelerate, render every
-//! pixel. The defaults are the command's, so the same options give the
+//! Rendering a file as `arbor render` does: load a Cornell scene or a
+//! framed model, set the size and samples, flatten, accelerate, render
+//! every pixel. [`render_file`] runs it all (the Python package); the steps
+//! are public ([`load`], [`flatten`], [`build_tracer`]) so the command line
+//! runs the same sequence with its own overrides, progress and outputs in
+//! between. The defaults are the command's, so the same options give the
 //! same image bit for bit.
 
 use std::path::Path;
@@ -10,10 +12,11 @@ use std::sync::atomic::AtomicBool;
 use arbor_accel::AccelKind;
 
 use crate::film::Film;
-use crate::flatten::{FlattenError, Flattened, DEFAULT_MAX_PLACEMENTS};
+use crate::flatten::{FlattenError, FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use crate::load::{LoadError, ModelOptions};
 use crate::scene::{Scene, Variant};
-use crate::tracer::Tracer;
+use crate::tracer::{BoundingVolumeKind, Tracer, TracerOptions};
+use crate::xml::LoadedScene;
 use crate::xml::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 /// What [`render_file`] changes from the file's own settings, and how it
@@ -33,6 +36,8 @@ pub struct RenderOptions {
     pub model: ModelOptions,
     /// Most placements of shared surfaces to accept (`--max-instances`).
     pub max_placements: u64,
+    /// A bounding volume around each top-level object (`--bvol`).
+    pub bounding_volume: Option<BoundingVolumeKind>,
 }
 
 impl Default for RenderOptions {
@@ -44,6 +49,17 @@ impl Default for RenderOptions {
             accel: AccelKind::DEFAULT,
             model: ModelOptions::default(),
             max_placements: DEFAULT_MAX_PLACEMENTS,
+            bounding_volume: None,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// How the tracer is built.
+    pub fn tracer(&self) -> TracerOptions {
+        TracerOptions {
+            accel: self.accel,
+            bounding_volume: self.bounding_volume,
         }
     }
 }
@@ -91,17 +107,13 @@ pub fn render_file(
     options: &RenderOptions,
     cancel: &AtomicBool,
 ) -> Result<RenderedFile, RenderFileError> {
-    check_options(options)?;
-    let loaded = crate::load::load_scene_with(path, &options.model)?;
-    let mut scene = loaded.scene;
-    apply(options, &mut scene)?;
-    let flat = Flattened::new(&scene, options.max_placements).map_err(|source| {
-        RenderFileError::Flatten {
-            path: path.to_path_buf(),
-            source,
-        }
+    let loaded = load(path, options)?;
+    let scene = loaded.scene;
+    let flat = flatten(&scene, options).map_err(|source| RenderFileError::Flatten {
+        path: path.to_path_buf(),
+        source,
     })?;
-    let tracer = Tracer::from_flattened(flat, options.accel);
+    let tracer = build_tracer(flat, options);
     let film =
         super::render(&scene, &tracer, &|_| {}, cancel).map_err(|_| RenderFileError::Cancelled)?;
     Ok(RenderedFile {
@@ -111,12 +123,51 @@ pub fn render_file(
     })
 }
 
+/// The first step: checks the options (before reading anything), loads the
+/// scene or model at `path` and applies the options' samples and size.
+pub fn load(path: &Path, options: &RenderOptions) -> Result<LoadedScene, RenderFileError> {
+    check_options(options)?;
+    let mut loaded = crate::load::load_scene_with(path, &options.model)?;
+    apply_samples_and_size(options, &mut loaded.scene)?;
+    Ok(loaded)
+}
+
+/// The second step: the scene flattened for the tracer, its top-level
+/// objects kept apart when the options ask for bounding volumes. The
+/// error says what the limit is, not how a caller raises it.
+pub fn flatten(scene: &Scene, options: &RenderOptions) -> Result<FlattenedScene, FlattenError> {
+    match options.bounding_volume {
+        Some(_) => FlattenedScene::bounded(scene, options.max_placements),
+        None => FlattenedScene::new(scene, options.max_placements),
+    }
+}
+
+/// The third step: the tracer the options ask for over `flat`.
+pub fn build_tracer(flat: FlattenedScene, options: &RenderOptions) -> Tracer {
+    Tracer::build(flat, &options.tracer())
+}
+
+/// Whether `n` pixels is a possible image side (what the scene reader accepts).
+pub fn valid_side(n: i64) -> bool {
+    (1..=MAX_IMAGE_SIDE).contains(&n)
+}
+
+/// Whether `n` is a possible sample count per pixel.
+pub fn valid_samples(n: i64) -> bool {
+    (1..=MAX_SAMPLES).contains(&n)
+}
+
+/// Whether a `w` x `h` image is small enough to render.
+pub fn valid_pixels(w: i64, h: i64) -> bool {
+    w * h <= MAX_IMAGE_PIXELS
+}
+
 /// Checks the options against the scene reader's limits, before loading.
 fn check_options(options: &RenderOptions) -> Result<(), RenderFileError> {
     let bad = |m: String| Err(RenderFileError::Option(m));
     for (name, side) in [("width", options.width), ("height", options.height)] {
         if let Some(n) = side {
-            if n == 0 || i64::from(n) > MAX_IMAGE_SIDE {
+            if !valid_side(n.into()) {
                 return bad(format!(
                     "{name}: expected a whole number of pixels from 1 to {MAX_IMAGE_SIDE}, got {n}"
                 ));
@@ -124,7 +175,7 @@ fn check_options(options: &RenderOptions) -> Result<(), RenderFileError> {
         }
     }
     if let Some(n) = options.samples {
-        if n == 0 || i64::from(n) > MAX_SAMPLES {
+        if !valid_samples(n.into()) {
             return bad(format!(
                 "samples: expected a whole number from 1 to {MAX_SAMPLES}, got {n}"
             ));
@@ -133,8 +184,12 @@ fn check_options(options: &RenderOptions) -> Result<(), RenderFileError> {
     Ok(())
 }
 
-/// Applies the samples, then the size, as `--spp` and `--size` do.
-fn apply(options: &RenderOptions, scene: &mut Scene) -> Result<(), RenderFileError> {
+/// Applies the options' samples, then their size, as `--spp` and `--size`
+/// do, to a scene loaded without them (the built-in one, say).
+pub fn apply_samples_and_size(
+    options: &RenderOptions,
+    scene: &mut Scene,
+) -> Result<(), RenderFileError> {
     if let Some(n) = options.samples {
         scene.samples_per_side = Scene::samples_per_side_for(n);
     }
@@ -149,7 +204,7 @@ fn apply(options: &RenderOptions, scene: &mut Scene) -> Result<(), RenderFileErr
         (None, None) => None,
     };
     if let Some((w, h)) = size {
-        if i64::from(w) * i64::from(h) > MAX_IMAGE_PIXELS {
+        if !valid_pixels(w.into(), h.into()) {
             return Err(RenderFileError::Option(format!(
                 "width x height: {w} x {h} is more than {MAX_IMAGE_PIXELS} pixels"
             )));
@@ -163,18 +218,23 @@ fn apply(options: &RenderOptions, scene: &mut Scene) -> Result<(), RenderFileErr
 mod tests {
     use super::*;
 
-    /// A small Cornell 2010 scene: one sphere under one light, 8 x 6 pixels.
-    fn sphere_scene(dir: &Path) -> std::path::PathBuf {
+    /// A small Cornell 2010 scene of `surfaces` under one light, 8 x 6
+    /// pixels, written to `dir`.
+    fn scene_file(dir: &Path, surfaces: &str) -> std::path::PathBuf {
         let path = dir.join("s.xml");
-        std::fs::write(
-            &path,
-            r#"<scene><camera><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>2</projDistance></camera>
-<image>8 6</image>
-<surface type="Sphere"><center>0 0 0</center><radius>1</radius></surface>
-<light><position>3 4 5</position></light></scene>"#,
-        )
-        .unwrap();
+        let camera = "<camera><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>2</projDistance></camera>";
+        let light = "<light><position>3 4 5</position></light>";
+        let xml = format!("<scene>{camera}<image>8 6</image>{surfaces}{light}</scene>");
+        std::fs::write(&path, xml).unwrap();
         path
+    }
+
+    /// One unit sphere at the origin.
+    fn sphere_scene(dir: &Path) -> std::path::PathBuf {
+        scene_file(
+            dir,
+            r#"<surface type="Sphere"><center>0 0 0</center><radius>1</radius></surface>"#,
+        )
     }
 
     fn no_cancel() -> AtomicBool {
@@ -209,8 +269,8 @@ mod tests {
         let mut scene = crate::load::load_scene(&path).unwrap().scene;
         scene.samples_per_side = 2;
         scene.resize(16, 10);
-        let flat = Flattened::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
-        let tracer = Tracer::from_flattened(flat, AccelKind::DEFAULT);
+        let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+        let tracer = Tracer::build(flat, &TracerOptions::default());
         let want = crate::render::render(&scene, &tracer, &|_| {}, &no_cancel()).unwrap();
         assert_eq!(got, want);
         // One side alone: the other follows the file's 8:6.
@@ -257,6 +317,31 @@ mod tests {
         let e = render_file(&missing, &RenderOptions::default(), &no_cancel()).unwrap_err();
         assert!(matches!(e, RenderFileError::Load(_)), "{e}");
         assert!(e.to_string().contains("missing.xml"), "{e}");
+    }
+
+    /// The limit is named, and no command-line flag (callers add their own).
+    #[test]
+    fn too_many_placements_name_the_file_and_the_limit() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = scene_file(
+            dir.path(),
+            r#"<defs><surface type="Sphere" name="a"/></defs>
+<surface ref="a"/><surface ref="a"/><surface ref="a"/>"#,
+        );
+        let options = RenderOptions {
+            max_placements: 2,
+            ..RenderOptions::default()
+        };
+        let e = render_file(&path, &options, &no_cancel()).unwrap_err();
+        assert!(matches!(e, RenderFileError::Flatten { .. }), "{e}");
+        let text = e.to_string();
+        assert!(text.starts_with(&format!("{}: ", path.display())), "{text}");
+        assert!(text.ends_with("3 times; the limit is 2"), "{text}");
+        let ok = RenderOptions {
+            max_placements: 3,
+            ..RenderOptions::default()
+        };
+        assert!(render_file(&path, &ok, &no_cancel()).is_ok());
     }
 
     #[test]

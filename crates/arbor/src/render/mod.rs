@@ -8,7 +8,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::camera::PreparedCamera;
 use crate::film::Film;
+use crate::ray::Ray;
 use crate::scene::{Scene, Variant};
 use crate::stats::{NoStats, RayStats};
 use crate::tracer::Tracer;
@@ -16,7 +18,10 @@ use crate::tracer::Tracer;
 mod file;
 mod shade;
 
-pub use file::{render_file, RenderFileError, RenderOptions, RenderedFile};
+pub use file::{
+    apply_samples_and_size, build_tracer, flatten, load, render_file, valid_pixels, valid_samples,
+    valid_side, RenderFileError, RenderOptions, RenderedFile,
+};
 pub use shade::Integrator;
 
 /// Side of the square tiles the image is cut into for parallel rendering.
@@ -92,12 +97,37 @@ pub fn sample_uv(scene: &Scene, column: u32, row: u32, a: u32, b: u32) -> (f64, 
     }
 }
 
+/// The `tmin` of camera rays: 2010 camera rays start at 0, 2015 ones at
+/// the integrator's epsilon.
+pub fn camera_tmin(variant: Variant) -> f64 {
+    match variant {
+        Variant::Cornell2010 => 0.0,
+        Variant::Cornell2015 => shade::T_EPSILON,
+    }
+}
+
+/// The camera ray of sample `(a, b)` of pixel `(column, row)` (row 0 at
+/// the top), as the renderer casts it: shared with the cost heatmap and
+/// `arbor explain` so all see the same rays.
+pub fn camera_ray(
+    scene: &Scene,
+    camera: &PreparedCamera,
+    column: u32,
+    row: u32,
+    a: u32,
+    b: u32,
+) -> Ray {
+    let (u, v) = sample_uv(scene, column, row, a, b);
+    let (origin, direction) = camera.ray(u, v);
+    Ray::unbounded(origin, direction, camera_tmin(scene.variant))
+}
+
 /// The linear radiance of pixel `(column, row)` (row 0 at the top): the
 /// average of its `s`x`s` samples, times the exposure.
 pub fn render_pixel(
     scene: &Scene,
     integrator: &Integrator,
-    camera: &crate::camera::PreparedCamera,
+    camera: &PreparedCamera,
     column: u32,
     row: u32,
 ) -> DVec3 {
@@ -108,7 +138,7 @@ pub fn render_pixel(
 pub fn render_pixel_with<S: RayStats>(
     scene: &Scene,
     integrator: &Integrator,
-    camera: &crate::camera::PreparedCamera,
+    camera: &PreparedCamera,
     column: u32,
     row: u32,
     stats: &mut S,
@@ -117,9 +147,7 @@ pub fn render_pixel_with<S: RayStats>(
     let mut sum = DVec3::ZERO;
     for a in 0..s {
         for b in 0..s {
-            let (u, v) = sample_uv(scene, column, row, a, b);
-            let (o, d) = camera.ray(u, v);
-            sum += integrator.camera_ray_with(o, d, stats);
+            sum += integrator.camera_ray_with(&camera_ray(scene, camera, column, row, a, b), stats);
         }
     }
     let n = (s * s) as f64;

@@ -6,13 +6,15 @@ use glam::DVec3;
 
 use crate::flatten::Hit;
 use crate::light::{spot_falloff, Light};
+use crate::ray::Ray;
 use crate::scene::{Scene, Variant};
 use crate::shader::{fresnel_exact, fresnel_exact_2015, schlick, schlick_r0, Fresnel, Shader};
 use crate::stats::{NoStats, RayKind, RayStats};
 use crate::tracer::Tracer;
 
-/// Epsilon on the ray parameter of secondary and shadow rays (spec §4).
-const T_EPSILON: f64 = 1e-6;
+/// Epsilon on the ray parameter of secondary and shadow rays (spec §4), and
+/// of 2015 camera rays ([`super::camera_tmin`]).
+pub(crate) const T_EPSILON: f64 = 1e-6;
 
 /// Shades rays of one scene.
 pub struct Integrator<'a> {
@@ -26,122 +28,90 @@ impl<'a> Integrator<'a> {
         Integrator { scene, tracer }
     }
 
-    /// The radiance arriving along a camera ray.
-    pub fn camera_ray(&self, o: DVec3, d: DVec3) -> DVec3 {
-        self.camera_ray_with(o, d, &mut NoStats)
+    /// The radiance arriving along a camera ray (as [`super::camera_ray`]
+    /// makes it: its `tmin` is the variant's).
+    pub fn camera_ray(&self, ray: &Ray) -> DVec3 {
+        self.camera_ray_with(ray, &mut NoStats)
     }
 
     /// [`Integrator::camera_ray`], recording every ray it traces (camera,
     /// shadow, reflection, refraction) into `stats`. Monomorphised per sink,
     /// so [`NoStats`] costs nothing.
-    pub fn camera_ray_with<S: RayStats>(&self, o: DVec3, d: DVec3, stats: &mut S) -> DVec3 {
-        match self.scene.variant {
-            Variant::Cornell2010 => self.trace_2010(o, d, 0.0, 1, 1.0, RayKind::Camera, stats),
-            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, 1, RayKind::Camera, stats),
-        }
+    pub fn camera_ray_with<S: RayStats>(&self, ray: &Ray, stats: &mut S) -> DVec3 {
+        self.trace(ray, 1, 1.0, RayKind::Camera, stats)
     }
 
     /// The nearest hit, with the traversal work recorded as a ray of `kind`.
     #[inline(always)]
-    fn closest<S: RayStats>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        kind: RayKind,
-        stats: &mut S,
-    ) -> Option<Hit<'a>> {
+    fn closest<S: RayStats>(&self, ray: &Ray, kind: RayKind, stats: &mut S) -> Option<Hit<'a>> {
         let mut counts = S::Counters::default();
-        let hit = self
-            .tracer
-            .closest_counted(o, d, tmin, f64::INFINITY, &mut counts);
+        let hit = self.tracer.closest_counted(ray, &mut counts);
         stats.record(kind, counts);
         hit
     }
 
     /// Whether a shadow ray is blocked, recorded as a shadow ray.
     #[inline(always)]
-    fn occluded<S: RayStats>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        tmax: f64,
-        stats: &mut S,
-    ) -> bool {
+    fn occluded<S: RayStats>(&self, ray: &Ray, stats: &mut S) -> bool {
         let mut counts = S::Counters::default();
-        let blocked = self.tracer.occluded_counted(o, d, tmin, tmax, &mut counts);
+        let blocked = self.tracer.occluded_counted(ray, &mut counts);
         stats.record(RayKind::Shadow, counts);
         blocked
     }
 
-    /// 2010: black past depth 10 or below 1% contribution; misses are black.
-    #[allow(clippy::too_many_arguments)]
-    fn trace_2010<S: RayStats>(
+    /// The colour seen along `ray`, in the variant's manner. 2010: black
+    /// past depth 10 or below 1% contribution, misses are black. 2015: black
+    /// past depth 12 (it does not track `contrib`), misses see the cube map
+    /// or the background.
+    fn trace<S: RayStats>(
         &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
+        ray: &Ray,
         depth: u32,
         contrib: f64,
         kind: RayKind,
         stats: &mut S,
     ) -> DVec3 {
-        if contrib < 0.01 || depth > 10 {
+        let is2015 = self.scene.variant == Variant::Cornell2015;
+        let too_deep = if is2015 {
+            depth > 12
+        } else {
+            contrib < 0.01 || depth > 10
+        };
+        if too_deep {
             return DVec3::ZERO;
         }
-        match self.closest(o, d, tmin, kind, stats) {
-            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, contrib, stats),
-            None => DVec3::ZERO,
-        }
-    }
-
-    /// 2015: black past depth 12; misses see the cube map or the background.
-    fn trace_2015<S: RayStats>(
-        &self,
-        o: DVec3,
-        d: DVec3,
-        tmin: f64,
-        depth: u32,
-        kind: RayKind,
-        stats: &mut S,
-    ) -> DVec3 {
-        if depth > 12 {
-            return DVec3::ZERO;
-        }
-        match self.closest(o, d, tmin, kind, stats) {
-            Some(hit) => self.shade(&hit, hit.shader, o, d, depth, 1.0, stats),
+        let contrib = if is2015 { 1.0 } else { contrib };
+        match self.closest(ray, kind, stats) {
+            Some(hit) => self.shade(&hit, hit.shader, ray, depth, contrib, stats),
+            None if !is2015 => DVec3::ZERO,
             None => match &self.scene.cubemap {
-                Some(map) => map.lookup(d),
+                Some(map) => map.lookup(ray.direction),
                 None => self.scene.background,
             },
         }
     }
 
-    /// A secondary ray from a hit point, in the variant's manner.
+    /// A secondary ray from hit point `from` along `direction` (from just
+    /// past the point: spec §4's epsilon).
     fn trace_secondary<S: RayStats>(
         &self,
-        o: DVec3,
-        d: DVec3,
+        from: DVec3,
+        direction: DVec3,
         depth: u32,
         contrib: f64,
         kind: RayKind,
         stats: &mut S,
     ) -> DVec3 {
-        match self.scene.variant {
-            Variant::Cornell2010 => self.trace_2010(o, d, T_EPSILON, depth, contrib, kind, stats),
-            Variant::Cornell2015 => self.trace_2015(o, d, T_EPSILON, depth, kind, stats),
-        }
+        let ray = Ray::unbounded(from, direction, T_EPSILON);
+        self.trace(&ray, depth, contrib, kind, stats)
     }
 
-    /// The colour of `hit` under `shader`, seen from the ray `o + t d`.
-    #[allow(clippy::too_many_arguments)]
+    /// The colour of `hit` under `shader`, seen along `ray`.
     fn shade<S: RayStats>(
         &self,
         hit: &Hit,
         shader: &Shader,
-        o: DVec3,
-        d: DVec3,
+        ray: &Ray,
         depth: u32,
         contrib: f64,
         stats: &mut S,
@@ -150,9 +120,9 @@ impl<'a> Integrator<'a> {
         let x = hit.point;
         let n = hit.normal;
         let v = if is2015 {
-            -d.normalize()
+            -ray.direction.normalize()
         } else {
-            (o - x).normalize()
+            (ray.origin - x).normalize()
         };
         match shader {
             Shader::Lambertian { diffuse, texture } => {
@@ -203,7 +173,7 @@ impl<'a> Integrator<'a> {
                 if is2015 {
                     let f = fresnel_exact_2015(n.dot(v), *eta);
                     let r = 2.0 * v.dot(n) * n - v;
-                    let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                    let below = self.shade(hit, substrate, ray, depth, contrib, stats);
                     let reflected =
                         self.trace_secondary(x, r, depth + 1, 1.0, RayKind::Reflection, stats);
                     (1.0 - f) * below + f * reflected
@@ -230,7 +200,7 @@ impl<'a> Integrator<'a> {
                     } else {
                         DVec3::ZERO
                     };
-                    let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                    let below = self.shade(hit, substrate, ray, depth, contrib, stats);
                     (1.0 - f) * below + f * reflected
                 }
             }
@@ -249,7 +219,7 @@ impl<'a> Integrator<'a> {
                     RayKind::Reflection,
                     stats,
                 );
-                let below = self.shade(hit, substrate, o, d, depth, contrib, stats);
+                let below = self.shade(hit, substrate, ray, depth, contrib, stats);
                 (DVec3::ONE - f) * below + f * reflected
             }
             Shader::Glass {
@@ -271,7 +241,7 @@ impl<'a> Integrator<'a> {
                     (Some(t), Some(uv)) => *emission * t.lookup(uv.x, uv.y),
                     _ => *emission,
                 };
-                glow + self.shade(hit, surface, o, d, depth, contrib, stats)
+                glow + self.shade(hit, surface, ray, depth, contrib, stats)
             }
             Shader::CookTorrance {
                 diffuse,
@@ -412,15 +382,18 @@ impl<'a> Integrator<'a> {
         stats: &mut S,
     ) -> Option<(DVec3, DVec3)> {
         let shadowed = |this: &Self, to: DVec3, stats: &mut S| match light {
-            Light::Directional { .. } => this.occluded(from, to, T_EPSILON, f64::MAX, stats),
+            Light::Directional { .. } => {
+                this.occluded(&Ray::new(from, to, T_EPSILON, f64::MAX), stats)
+            }
             _ => {
                 let d = to - from;
-                match this.scene.variant {
+                let ray = match this.scene.variant {
                     Variant::Cornell2010 if matches!(light, Light::Point { .. }) => {
-                        this.occluded(from, d, T_EPSILON, 1.0, stats)
+                        Ray::new(from, d, T_EPSILON, 1.0)
                     }
-                    _ => this.occluded(from, d.normalize(), T_EPSILON, d.length(), stats),
-                }
+                    _ => Ray::new(from, d.normalize(), T_EPSILON, d.length()),
+                };
+                this.occluded(&ray, stats)
             }
         };
         match (self.scene.variant, light) {

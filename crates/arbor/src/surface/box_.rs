@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::ray::Ray;
 use crate::shader::Shader;
 
 /// A box given by two corners (in its own space).
@@ -21,14 +22,8 @@ pub struct BoxSurface {
 /// distance only (a ray starting inside does not hit), ties between axes go
 /// to the first in x, y, z order. Returns `t` and the outward normal of the
 /// entering face.
-pub fn intersect(
-    min: DVec3,
-    max: DVec3,
-    o: DVec3,
-    d: DVec3,
-    tmin: f64,
-    tmax: f64,
-) -> Option<(f64, DVec3)> {
+pub fn intersect(min: DVec3, max: DVec3, ray: &Ray) -> Option<(f64, DVec3)> {
+    let (o, d, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
     let mut t_near = f64::NEG_INFINITY;
     let mut t_far = f64::INFINITY;
     let mut normal = DVec3::ZERO;
@@ -95,12 +90,21 @@ mod tests {
     #[test]
     fn entering_face_and_inside_start() {
         let (min, max) = (DVec3::splat(-1.0), DVec3::splat(1.0));
-        let (t, n) =
-            intersect(min, max, DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, 0.0, 1e30).unwrap();
+        let (t, n) = intersect(
+            min,
+            max,
+            &Ray::new(DVec3::new(0.0, 0.0, 5.0), DVec3::NEG_Z, 0.0, 1e30),
+        )
+        .unwrap();
         assert_eq!((t, n), (4.0, DVec3::Z));
-        let (t, n) = intersect(min, max, DVec3::new(-5.0, 0.2, 0.0), DVec3::X, 0.0, 1e30).unwrap();
+        let (t, n) = intersect(
+            min,
+            max,
+            &Ray::new(DVec3::new(-5.0, 0.2, 0.0), DVec3::X, 0.0, 1e30),
+        )
+        .unwrap();
         assert_eq!((t, n), (4.0, DVec3::NEG_X));
-        assert!(intersect(min, max, DVec3::ZERO, DVec3::X, 1e-6, 1e30).is_none());
+        assert!(intersect(min, max, &Ray::new(DVec3::ZERO, DVec3::X, 1e-6, 1e30)).is_none());
     }
 
     #[test]

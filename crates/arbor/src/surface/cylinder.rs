@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::ray::Ray;
 use crate::shader::Shader;
 
 /// A closed cylinder of the given radius, `height` long along z, centred at
@@ -20,19 +21,12 @@ pub struct Cylinder {
     pub shader: Arc<Shader>,
 }
 
-/// The nearest hit strictly inside `(tmin, tmax)` on the side or a cap, with
+/// The nearest hit strictly inside the ray's `(tmin, tmax)` on the side or a cap, with
 /// its object-space normal (not yet flipped toward the ray). A clean capped
 /// cylinder test, as the spec (§5.6) allows instead of the framework's
 /// approximation at silhouettes.
-pub fn intersect(
-    center: DVec3,
-    radius: f64,
-    height: f64,
-    o: DVec3,
-    d: DVec3,
-    tmin: f64,
-    tmax: f64,
-) -> Option<(f64, DVec3)> {
+pub fn intersect(center: DVec3, radius: f64, height: f64, ray: &Ray) -> Option<(f64, DVec3)> {
+    let (o, d, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
     let (z0, z1) = (center.z - height / 2.0, center.z + height / 2.0);
     let mut best: Option<(f64, DVec3)> = None;
     let mut consider = |t: f64, n: DVec3| {
@@ -81,10 +75,7 @@ mod tests {
             c,
             1.0,
             2.0,
-            DVec3::new(5.0, 0.0, 0.0),
-            DVec3::NEG_X,
-            0.0,
-            1e30,
+            &Ray::new(DVec3::new(5.0, 0.0, 0.0), DVec3::NEG_X, 0.0, 1e30),
         )
         .unwrap();
         assert_eq!(t, 4.0);
@@ -93,10 +84,7 @@ mod tests {
             c,
             1.0,
             2.0,
-            DVec3::new(0.5, 0.0, 5.0),
-            DVec3::NEG_Z,
-            0.0,
-            1e30,
+            &Ray::new(DVec3::new(0.5, 0.0, 5.0), DVec3::NEG_Z, 0.0, 1e30),
         )
         .unwrap();
         assert_eq!((t, n), (4.0, DVec3::Z));
@@ -105,10 +93,7 @@ mod tests {
             c,
             1.0,
             2.0,
-            DVec3::new(5.0, 0.0, 1.5),
-            DVec3::NEG_X,
-            0.0,
-            1e30
+            &Ray::new(DVec3::new(5.0, 0.0, 1.5), DVec3::NEG_X, 0.0, 1e30)
         )
         .is_none());
     }

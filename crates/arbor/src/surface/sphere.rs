@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::ray::Ray;
 use crate::scene::Variant;
 use crate::shader::Shader;
 
@@ -18,19 +19,12 @@ pub struct Sphere {
     pub shader: Arc<Shader>,
 }
 
-/// The nearer root of the ray/sphere quadratic lying strictly inside
-/// `(tmin, tmax)`, else the farther one (a ray starting on or inside the
+/// The nearer root of the ray/sphere quadratic lying strictly inside the
+/// ray's `(tmin, tmax)`, else the farther one (a ray starting on or inside the
 /// sphere must find its far side: spec §9.6), in the algebra of the
 /// `variant`'s framework (the two round differently).
-pub fn intersect(
-    center: DVec3,
-    radius: f64,
-    o: DVec3,
-    d: DVec3,
-    tmin: f64,
-    tmax: f64,
-    variant: Variant,
-) -> Option<f64> {
+pub fn intersect(center: DVec3, radius: f64, ray: &Ray, variant: Variant) -> Option<f64> {
+    let (o, d) = (ray.origin, ray.direction);
     let (t1, t2) = if variant == Variant::Cornell2015 {
         let q = o - center;
         let dd = d.dot(d);
@@ -54,7 +48,7 @@ pub fn intersect(
         let s = disc.sqrt();
         ((-b - s) / (2.0 * a), (-b + s) / (2.0 * a))
     };
-    [t1, t2].into_iter().find(|&t| t > tmin && t < tmax)
+    [t1, t2].into_iter().find(|&t| t > ray.tmin && t < ray.tmax)
 }
 
 #[cfg(test)]
@@ -67,15 +61,23 @@ mod tests {
         let d = DVec3::NEG_Z;
         for year in [Variant::Cornell2010, Variant::Cornell2015] {
             assert_eq!(
-                intersect(DVec3::ZERO, 1.0, o, d, 0.0, 1e30, year),
+                intersect(DVec3::ZERO, 1.0, &Ray::new(o, d, 0.0, 1e30), year),
                 Some(4.0)
             );
             // From inside, the far side.
-            let t = intersect(DVec3::ZERO, 1.0, DVec3::ZERO, d, 1e-6, 1e30, year);
+            let t = intersect(
+                DVec3::ZERO,
+                1.0,
+                &Ray::new(DVec3::ZERO, d, 1e-6, 1e30),
+                year,
+            );
             assert_eq!(t, Some(1.0));
-            assert_eq!(intersect(DVec3::ZERO, 1.0, o, d, 0.0, 3.0, year), None);
             assert_eq!(
-                intersect(DVec3::ZERO, 1.0, o, DVec3::X, 0.0, 1e30, year),
+                intersect(DVec3::ZERO, 1.0, &Ray::new(o, d, 0.0, 3.0), year),
+                None
+            );
+            assert_eq!(
+                intersect(DVec3::ZERO, 1.0, &Ray::new(o, DVec3::X, 0.0, 1e30), year),
                 None
             );
         }

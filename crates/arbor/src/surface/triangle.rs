@@ -2,17 +2,13 @@
 
 use glam::DVec3;
 
-/// Intersects the ray `o + t w` with triangle `[p0, p1, p2]`; returns
-/// `(t, β, γ)` (weights `(1-β-γ, β, γ)`) when `t` lies in the interval
-/// (`closed` selects `[tmin, tmax]` instead of `(tmin, tmax)`). Two-sided.
-pub fn intersect(
-    [p0, p1, p2]: [DVec3; 3],
-    o: DVec3,
-    w: DVec3,
-    tmin: f64,
-    tmax: f64,
-    closed: bool,
-) -> Option<(f64, f64, f64)> {
+use crate::ray::Ray;
+
+/// Intersects `ray` with triangle `[p0, p1, p2]`; returns `(t, β, γ)`
+/// (weights `(1-β-γ, β, γ)`) when `t` lies in the ray's interval (`closed`
+/// selects `[tmin, tmax]` instead of `(tmin, tmax)`). Two-sided.
+pub fn intersect([p0, p1, p2]: [DVec3; 3], ray: &Ray, closed: bool) -> Option<(f64, f64, f64)> {
+    let (o, w, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
     let (a, b, c) = (p0.x - p1.x, p0.y - p1.y, p0.z - p1.z);
     let (d, e, f) = (p0.x - p2.x, p0.y - p2.y, p0.z - p2.z);
     let (g, h, i) = (w.x, w.y, w.z);
@@ -52,23 +48,29 @@ mod tests {
     fn hit_and_barycentrics() {
         let (p0, p1, p2) = (DVec3::ZERO, DVec3::X, DVec3::Y);
         let o = DVec3::new(0.25, 0.5, 1.0);
-        let (t, b, g) = intersect([p0, p1, p2], o, DVec3::NEG_Z, 0.0, 10.0, false).unwrap();
+        let (t, b, g) =
+            intersect([p0, p1, p2], &Ray::new(o, DVec3::NEG_Z, 0.0, 10.0), false).unwrap();
         assert_eq!((t, b, g), (1.0, 0.25, 0.5));
         // From behind too (two-sided).
         let o = DVec3::new(0.25, 0.5, -1.0);
-        assert!(intersect([p0, p1, p2], o, DVec3::Z, 0.0, 10.0, false).is_some());
+        assert!(intersect([p0, p1, p2], &Ray::new(o, DVec3::Z, 0.0, 10.0), false).is_some());
         // Outside.
         let o = DVec3::new(0.75, 0.5, 1.0);
-        assert!(intersect([p0, p1, p2], o, DVec3::NEG_Z, 0.0, 10.0, false).is_none());
+        assert!(intersect([p0, p1, p2], &Ray::new(o, DVec3::NEG_Z, 0.0, 10.0), false).is_none());
         // Degenerate triangle: det = 0 gives NaN, never a hit.
-        assert!(intersect([p0, p1, p1 * 2.0], o, DVec3::NEG_Z, 0.0, 10.0, false).is_none());
+        assert!(intersect(
+            [p0, p1, p1 * 2.0],
+            &Ray::new(o, DVec3::NEG_Z, 0.0, 10.0),
+            false
+        )
+        .is_none());
     }
 
     #[test]
     fn interval_ends() {
         let (p0, p1, p2) = (DVec3::ZERO, DVec3::X, DVec3::Y);
         let o = DVec3::new(0.25, 0.25, 1.0);
-        assert!(intersect([p0, p1, p2], o, DVec3::NEG_Z, 0.0, 1.0, false).is_none());
-        assert!(intersect([p0, p1, p2], o, DVec3::NEG_Z, 0.0, 1.0, true).is_some());
+        assert!(intersect([p0, p1, p2], &Ray::new(o, DVec3::NEG_Z, 0.0, 1.0), false).is_none());
+        assert!(intersect([p0, p1, p2], &Ray::new(o, DVec3::NEG_Z, 0.0, 1.0), true).is_some());
     }
 }

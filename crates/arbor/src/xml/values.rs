@@ -34,32 +34,31 @@ pub fn parse_int(text: &str) -> Result<i64, String> {
 
 /// Exactly three whitespace-separated numbers.
 pub fn parse_vector(text: &str) -> Result<DVec3, String> {
-    let parts: Vec<&str> = text.split_whitespace().collect();
-    if parts.len() != 3 {
-        return Err(format!(
-            "expected 3 numbers, found {} in '{}'",
-            parts.len(),
-            text.trim()
-        ));
-    }
+    let [x, y, z] = words(text, "numbers")?;
     Ok(DVec3::new(
-        parse_number(parts[0])?,
-        parse_number(parts[1])?,
-        parse_number(parts[2])?,
+        parse_number(x)?,
+        parse_number(y)?,
+        parse_number(z)?,
     ))
 }
 
 /// Exactly two whole numbers (`<image>W H</image>`).
 pub fn parse_size(text: &str) -> Result<(i64, i64), String> {
+    let [width, height] = words(text, "whole numbers (width height)")?;
+    Ok((parse_int(width)?, parse_int(height)?))
+}
+
+/// The whitespace-separated words of `text`, exactly `N` of them (`what`
+/// names them in the error).
+fn words<'a, const N: usize>(text: &'a str, what: &str) -> Result<[&'a str; N], String> {
     let parts: Vec<&str> = text.split_whitespace().collect();
-    if parts.len() != 2 {
-        return Err(format!(
-            "expected 2 whole numbers (width height), found {} in '{}'",
+    parts.try_into().map_err(|parts: Vec<&str>| {
+        format!(
+            "expected {N} {what}, found {} in '{}'",
             parts.len(),
             text.trim()
-        ));
-    }
-    Ok((parse_int(parts[0])?, parse_int(parts[1])?))
+        )
+    })
 }
 
 #[cfg(test)]

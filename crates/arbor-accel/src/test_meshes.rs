@@ -1,0 +1,57 @@
+//! Meshes and checks the unit tests of several structures share.
+
+use crate::{Accelerator, List, NoCounters, Ray, TriangleMesh, Vec3};
+
+/// `n` triangles of assorted sizes and slopes scattered through a box of
+/// side 10 (an irrational stride keeps them apart without a generator).
+pub(crate) fn soup(n: u32) -> TriangleMesh {
+    let mut v = Vec::new();
+    let mut t = Vec::new();
+    for i in 0..n {
+        let f = i as f32;
+        let c = Vec3::new(
+            (f * 0.618).fract(),
+            (f * 0.414).fract(),
+            (f * 0.732).fract(),
+        ) * 10.0;
+        v.push(c);
+        v.push(c + Vec3::new((f * 1.3).sin(), 0.5, (f * 0.7).cos()));
+        v.push(c + Vec3::new(0.3, (f * 2.1).cos(), 0.8));
+        t.push([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    TriangleMesh::new(v, t)
+}
+
+/// The nearest hit distance `accel` finds for `ray` on `mesh` (infinity
+/// when none).
+pub(crate) fn nearest_t(accel: &impl Accelerator, mesh: &TriangleMesh, ray: &Ray) -> f32 {
+    let mut best = f32::INFINITY;
+    accel.closest(ray, &mut NoCounters, |p, ray| {
+        let t = mesh.intersect(p, ray)?.t;
+        best = best.min(t);
+        Some(t)
+    });
+    best
+}
+
+/// Asserts that `accel` answers `ray`'s closest and occlusion queries on
+/// `mesh` as brute force (`list`) does.
+pub(crate) fn assert_agrees_with_list(
+    accel: &impl Accelerator,
+    list: &List,
+    mesh: &TriangleMesh,
+    ray: &Ray,
+    label: &str,
+) {
+    assert_eq!(
+        nearest_t(accel, mesh, ray),
+        nearest_t(list, mesh, ray),
+        "{label}"
+    );
+    let test = |p: u32, ray: &Ray| mesh.intersect(p, ray).is_some();
+    assert_eq!(
+        accel.occluded(ray, &mut NoCounters, test),
+        list.occluded(ray, &mut NoCounters, test),
+        "{label}"
+    );
+}
