@@ -135,6 +135,10 @@ pub struct FlatGeometry {
     shaders: Vec<Arc<Shader>>,
     /// World-space `f64` bounds of each primitive.
     bounds: Vec<(DVec3, DVec3)>,
+    /// Per primitive, its corners if it is a triangle without a transform:
+    /// the exact test reads them in one place instead of through the mesh's
+    /// index and position arrays (the renderer's commonest test).
+    plain_triangles: Vec<Option<[DVec3; 3]>>,
     /// Primitives dropped for non-finite coordinates.
     dropped: usize,
 }
@@ -170,6 +174,7 @@ impl FlatGeometry {
             transforms: Vec::new(),
             shaders: Vec::new(),
             bounds: Vec::new(),
+            plain_triangles: Vec::new(),
             dropped: 0,
         }
     }
@@ -188,6 +193,16 @@ impl FlatGeometry {
         self.primitives.retain(|_| keep.next().unwrap_or(false));
         self.bounds = bounds.into_iter().filter(finite).collect();
         self.dropped = before - self.primitives.len();
+        self.plain_triangles = self
+            .primitives
+            .iter()
+            .map(|prim| match prim.shape {
+                Shape::Triangle { mesh, index } if prim.transform == NO_TRANSFORM => {
+                    Some(self.triangle(mesh, index).1)
+                }
+                _ => None,
+            })
+            .collect();
     }
 
     /// How many primitives were dropped for non-finite coordinates.
@@ -444,8 +459,14 @@ impl FlatGeometry {
     /// scene's space), `t` in the ray's `(tmin, tmax)` (closed for 2015
     /// triangles).
     pub fn intersect(&self, i: usize, ray: &Ray) -> Option<Candidate> {
-        let prim = &self.primitives[i];
         let is2015 = self.variant == Variant::Cornell2015;
+        if let Some(p) = self.plain_triangles[i] {
+            return triangle::intersect(p, ray, is2015).map(|(t, b, g)| Candidate {
+                t,
+                aux: DVec3::new(b, g, 0.0),
+            });
+        }
+        let prim = &self.primitives[i];
         let object_ray = match self.transform(prim.transform) {
             Some(t) => ray.with_line(
                 t.point_to_object(ray.origin),
