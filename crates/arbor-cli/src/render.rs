@@ -441,7 +441,9 @@ struct Preview {
     film: Option<std::sync::Mutex<arbor::film::Film>>,
     /// The region's top-left pixel in the image.
     origin: (u32, u32),
-    done: AtomicBool,
+    /// Set by [`Preview::stop`]; the condition variable wakes the writer
+    /// at once, so a short render does not wait out its polling interval.
+    done: (std::sync::Mutex<bool>, std::sync::Condvar),
     written: AtomicBool,
 }
 
@@ -452,7 +454,7 @@ impl Preview {
             film: enabled
                 .then(|| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
             origin: (r.x0, r.y0),
-            done: AtomicBool::new(false),
+            done: Default::default(),
             written: AtomicBool::new(false),
         }
     }
@@ -480,8 +482,19 @@ impl Preview {
     /// SIGUSR1 asks, until [`Preview::stop`].
     fn keep_writing(&self, every: Option<f64>, job: &Job) {
         let mut last = Instant::now();
-        while !self.done.load(Ordering::Relaxed) {
-            std::thread::sleep(std::time::Duration::from_millis(50));
+        let (done, wake) = &self.done;
+        loop {
+            // Checks for SIGUSR1 every 50 ms (a signal handler cannot notify).
+            let stopped = wake
+                .wait_timeout_while(
+                    done.lock().unwrap_or_else(|e| e.into_inner()),
+                    std::time::Duration::from_millis(50),
+                    |stopped| !*stopped,
+                )
+                .map_or(true, |(stopped, _)| *stopped);
+            if stopped {
+                return;
+            }
             let due = every.is_some_and(|e| last.elapsed().as_secs_f64() >= e);
             if !(crate::preview_signal::take() || due) {
                 continue;
@@ -501,7 +514,9 @@ impl Preview {
     }
 
     fn stop(&self) {
-        self.done.store(true, Ordering::Relaxed);
+        let (done, wake) = &self.done;
+        *done.lock().unwrap_or_else(|e| e.into_inner()) = true;
+        wake.notify_all();
     }
 
     /// After an interrupt without `--partial`: no picture is left.
