@@ -297,7 +297,7 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
     };
     // Previews for --preview-every and SIGUSR1 (pictures only: a `.part`
     // output has no picture to show).
-    let preview = Preview::new(job, job.part.is_none());
+    let preview = Preview::new(job.part.is_none());
     let film = std::thread::scope(|threads| {
         if job.part.is_none() {
             let preview = &preview;
@@ -308,7 +308,7 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
             tracer,
             job.region,
             &progress,
-            &|tile, pixels| preview.add(tile, pixels),
+            &|_, film| preview.tile_done(film),
             &cancel,
             args.stats,
         );
@@ -420,7 +420,7 @@ fn render_counted(
     tracer: &Tracer,
     region: Region,
     progress: &(dyn Fn(u64) + Sync),
-    on_tile: &(dyn Fn(Region, &[glam::DVec3]) + Sync),
+    on_tile: &(dyn Fn(Region, &arbor::film::Film) + Sync),
     cancel: &AtomicBool,
     count: bool,
 ) -> Result<(arbor::film::Film, Option<RenderStats>), arbor::render::Cancelled> {
@@ -434,75 +434,82 @@ fn render_counted(
 }
 
 /// `--preview-every` and SIGUSR1: the tiles finished so far, written to
-/// the output now and then while the render runs.
+/// the output now and then while the render runs. The render keeps the one
+/// film; a preview is a copy of it taken when the next tile finishes after
+/// the writer asked, so a render nobody previews copies nothing.
 struct Preview {
-    /// The pixels of the job's region, `None` when no preview can be asked
-    /// for (a `.part` output).
-    film: Option<std::sync::Mutex<arbor::film::Film>>,
-    /// The region's top-left pixel in the image.
-    origin: (u32, u32),
-    /// Set by [`Preview::stop`]; the condition variable wakes the writer
-    /// at once, so a short render does not wait out its polling interval.
-    done: (std::sync::Mutex<bool>, std::sync::Condvar),
+    /// Whether previews can be asked for (not for a `.part` output).
+    enabled: bool,
+    /// Set by the writer when a preview is due, cleared by the tile that
+    /// answers it.
+    wanted: AtomicBool,
+    /// What the writer waits for; the condition variable wakes it at once
+    /// when either changes, so a short render does not wait out its polling
+    /// interval.
+    state: (std::sync::Mutex<PreviewState>, std::sync::Condvar),
     written: AtomicBool,
 }
 
+#[derive(Default)]
+struct PreviewState {
+    /// Set by [`Preview::stop`].
+    done: bool,
+    /// The film so far, copied for the writer.
+    snapshot: Option<arbor::film::Film>,
+}
+
 impl Preview {
-    fn new(job: &Job, enabled: bool) -> Preview {
-        let r = job.region;
+    fn new(enabled: bool) -> Preview {
         Preview {
-            film: enabled
-                .then(|| std::sync::Mutex::new(arbor::film::Film::new(r.x1 - r.x0, r.y1 - r.y0))),
-            origin: (r.x0, r.y0),
-            done: Default::default(),
+            enabled,
+            wanted: AtomicBool::new(false),
+            state: Default::default(),
             written: AtomicBool::new(false),
         }
     }
 
-    fn lock(&self) -> Option<std::sync::MutexGuard<'_, arbor::film::Film>> {
-        self.film
-            .as_ref()
-            .map(|f| f.lock().unwrap_or_else(|e| e.into_inner()))
+    fn lock(&self) -> std::sync::MutexGuard<'_, PreviewState> {
+        self.state.0.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Copies a finished tile (in image coordinates) into the preview of
-    /// `region`'s pixels.
-    fn add(&self, tile: Region, pixels: &[glam::DVec3]) {
-        let Some(mut film) = self.lock() else { return };
-        let mut k = 0;
-        for row in tile.y0..tile.y1 {
-            for col in tile.x0..tile.x1 {
-                film.set(col - self.origin.0, row - self.origin.1, pixels[k]);
-                k += 1;
-            }
+    /// Called as each tile finishes, with the film so far: copies it if
+    /// the writer asked for a preview.
+    fn tile_done(&self, film: &arbor::film::Film) {
+        if self.enabled && self.wanted.swap(false, Ordering::Relaxed) {
+            self.lock().snapshot = Some(film.clone());
+            self.state.1.notify_all();
         }
     }
 
     /// Writes the preview every `every` seconds (if given) and whenever
     /// SIGUSR1 asks, until [`Preview::stop`].
     fn keep_writing(&self, every: Option<f64>, job: &Job) {
+        let wake = &self.state.1;
         let mut last = Instant::now();
-        let (done, wake) = &self.done;
         loop {
             // Checks for SIGUSR1 every 50 ms (a signal handler cannot notify).
-            let stopped = wake
-                .wait_timeout_while(
-                    done.lock().unwrap_or_else(|e| e.into_inner()),
-                    std::time::Duration::from_millis(50),
-                    |stopped| !*stopped,
-                )
-                .map_or(true, |(stopped, _)| *stopped);
-            if stopped {
+            let (state, _) = wake
+                .wait_timeout_while(self.lock(), std::time::Duration::from_millis(50), |s| {
+                    !s.done
+                })
+                .unwrap_or_else(|e| e.into_inner());
+            if state.done {
                 return;
             }
+            drop(state);
             let due = every.is_some_and(|e| last.elapsed().as_secs_f64() >= e);
             if !(crate::preview_signal::take() || due) {
                 continue;
             }
             last = Instant::now();
-            let Some(film) = self.lock().map(|f| f.clone()) else {
+            self.wanted.store(true, Ordering::Relaxed);
+            let mut state = wake
+                .wait_while(self.lock(), |s| !s.done && s.snapshot.is_none())
+                .unwrap_or_else(|e| e.into_inner());
+            let Some(film) = state.snapshot.take() else {
                 return;
             };
+            drop(state);
             // The render goes on even if a preview cannot be written.
             if crate::output::stage_film(&job.output, &film, job.scene.variant)
                 .and_then(|s| s.commit())
@@ -514,9 +521,8 @@ impl Preview {
     }
 
     fn stop(&self) {
-        let (done, wake) = &self.done;
-        *done.lock().unwrap_or_else(|e| e.into_inner()) = true;
-        wake.notify_all();
+        self.lock().done = true;
+        self.state.1.notify_all();
     }
 
     /// After an interrupt without `--partial`: no picture is left.

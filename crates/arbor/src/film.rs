@@ -49,6 +49,12 @@ impl Film {
         self.pixels[(y * self.width + x) as usize] = value;
     }
 
+    /// Sets the radiance of `values.len()` pixels of row `y` from column `x` on.
+    pub fn set_row(&mut self, x: u32, y: u32, values: &[DVec3]) {
+        let start = (y * self.width + x) as usize;
+        self.pixels[start..start + values.len()].copy_from_slice(values);
+    }
+
     /// 8-bit RGB bytes, row 0 at the top, by the variant's conversion.
     pub fn to_rgb8(&self, variant: Variant) -> Vec<u8> {
         // In parallel: three `powf` per pixel are a visible part of a

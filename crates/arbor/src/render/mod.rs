@@ -4,6 +4,7 @@
 //! image is the same bit for bit for any thread count.
 
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -183,15 +184,16 @@ pub fn render_region_with<S: RayStats>(
     render_region_observed(scene, tracer, region, progress, &|_, _| {}, cancel)
 }
 
-/// [`render_region_with`], also handing each finished tile and its pixels
-/// (row by row, linear radiance) to `on_tile` as soon as it is done: a
-/// caller can show the picture so far. The image never depends on it.
+/// [`render_region_with`], also calling `on_tile(tile, film)` as each tile
+/// finishes, with `film` the region's pixels so far (black where no tile is
+/// done yet) and no other tile added meanwhile: a caller can copy the
+/// picture so far. The image never depends on it.
 pub fn render_region_observed<S: RayStats>(
     scene: &Scene,
     tracer: &Tracer,
     region: Region,
     progress: &(dyn Fn(u64) + Sync),
-    on_tile: &(dyn Fn(Region, &[DVec3]) + Sync),
+    on_tile: &(dyn Fn(Region, &Film) + Sync),
     cancel: &AtomicBool,
 ) -> Result<(Film, S), Cancelled> {
     let camera = scene.camera.prepare();
@@ -209,9 +211,13 @@ pub fn render_region_observed<S: RayStats>(
             (r.x0 < r.x1 && r.y0 < r.y1).then_some(r)
         })
         .collect();
-    let done: Vec<Option<(Region, Vec<DVec3>, S)>> = mine
+    // Tiles go into the one film as they finish: no second copy of the
+    // picture, and nothing left to assemble once the last tile is done.
+    let film = Mutex::new(Film::new(region.x1 - region.x0, region.y1 - region.y0));
+    let done: Vec<Option<S>> = mine
         .par_iter()
         .map(|&tile| {
+            let width = (tile.x1 - tile.x0) as usize;
             let mut pixels = Vec::with_capacity(tile.area() as usize);
             let mut stats = S::default();
             for row in tile.y0..tile.y1 {
@@ -229,23 +235,21 @@ pub fn render_region_observed<S: RayStats>(
                     ));
                 }
             }
-            on_tile(tile, &pixels);
+            let mut film = film.lock().unwrap_or_else(|e| e.into_inner());
+            for (row, values) in (tile.y0..tile.y1).zip(pixels.chunks_exact(width)) {
+                film.set_row(tile.x0 - region.x0, row - region.y0, values);
+            }
+            on_tile(tile, &film);
+            drop(film);
             progress(tile.area());
-            Some((tile, pixels, stats))
+            Some(stats)
         })
         .collect();
-    let mut film = Film::new(region.x1 - region.x0, region.y1 - region.y0);
+    let film = film.into_inner().unwrap_or_else(|e| e.into_inner());
     let complete = done.iter().all(Option::is_some);
     let mut total = S::default();
-    for (tile, pixels, stats) in done.into_iter().flatten() {
+    for stats in done.into_iter().flatten() {
         total.merge(stats);
-        let mut k = 0;
-        for row in tile.y0..tile.y1 {
-            for col in tile.x0..tile.x1 {
-                film.set(col - region.x0, row - region.y0, pixels[k]);
-                k += 1;
-            }
-        }
     }
     if complete {
         Ok((film, total))
@@ -268,4 +272,68 @@ pub fn render(
         y1: scene.height,
     };
     render_region(scene, tracer, full, progress, cancel)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::flatten::{FlatGeometry, FlattenedScene};
+    use crate::tracer::TracerOptions;
+
+    /// Each tile the observer is handed is already in the film it sees,
+    /// equal to the finished picture there, and no tile it has not been
+    /// handed yet is (black); the tiles tile the region once each.
+    #[test]
+    fn the_observer_sees_each_finished_tile_in_the_film_so_far() {
+        let scene = crate::default_scene::classroom();
+        let tracer = Tracer::build(
+            FlattenedScene::from_world(FlatGeometry::new(&scene).unwrap()),
+            &TracerOptions::default(),
+        );
+        let region = Region {
+            x0: 3,
+            y0: 5,
+            x1: scene.width.min(70),
+            y1: scene.height.min(50),
+        };
+        let seen = Mutex::new(Vec::new());
+        let cancel = AtomicBool::new(false);
+        let (final_film, _) = render_region_observed::<NoStats>(
+            &scene,
+            &tracer,
+            region,
+            &|_| {},
+            &|tile, film| seen.lock().unwrap().push((tile, film.clone())),
+            &cancel,
+        )
+        .unwrap();
+        let seen = seen.into_inner().unwrap();
+        let area: u64 = seen.iter().map(|(t, _)| t.area()).sum();
+        assert_eq!(area, region.area());
+        let lit = |film: &Film, t: &Region| {
+            (t.y0..t.y1).all(|y| {
+                (t.x0..t.x1).all(|x| {
+                    let (fx, fy) = (x - region.x0, y - region.y0);
+                    film.get(fx, fy) == final_film.get(fx, fy)
+                })
+            })
+        };
+        for (k, (tile, film)) in seen.iter().enumerate() {
+            for (earlier, _) in &seen[..=k] {
+                assert!(
+                    lit(film, earlier),
+                    "{earlier:?} missing when {tile:?} finished"
+                );
+            }
+            for (later, _) in &seen[k + 1..] {
+                let black = (later.y0..later.y1).all(|y| {
+                    (later.x0..later.x1)
+                        .all(|x| film.get(x - region.x0, y - region.y0) == DVec3::ZERO)
+                });
+                assert!(black, "{later:?} present before it finished");
+            }
+        }
+        assert!((0..final_film.height())
+            .any(|y| (0..final_film.width()).any(|x| final_film.get(x, y) != DVec3::ZERO)));
+    }
 }
