@@ -23,6 +23,7 @@ use std::sync::Arc;
 
 use arbor_accel::{Aabb, Vec3};
 use glam::{DMat4, DVec2, DVec3};
+use rayon::prelude::*;
 
 use crate::ray::Ray;
 use crate::scene::{Scene, Variant};
@@ -195,7 +196,7 @@ impl FlatGeometry {
         self.dropped = before - self.primitives.len();
         self.plain_triangles = self
             .primitives
-            .iter()
+            .par_iter()
             .map(|prim| match prim.shape {
                 Shape::Triangle { mesh, index } if prim.transform == NO_TRANSFORM => {
                     Some(self.triangle(mesh, index).1)
