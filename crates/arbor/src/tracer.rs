@@ -504,7 +504,8 @@ impl Tracer {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit<'_>> {
-        self.closest_identified(ray, counters).map(|(_, hit)| hit)
+        let (_, found) = self.nearest(ray, counters)?;
+        Some(self.hit_record(ray, found))
     }
 
     /// [`Tracer::closest_counted`], also naming the primitive hit.
@@ -513,6 +514,23 @@ impl Tracer {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<(HitId, Hit<'_>)> {
+        let (top, found) = self.nearest(ray, counters)?;
+        let id = HitId {
+            primitive: top,
+            shared: match found {
+                Found::World(..) => None,
+                Found::Shared {
+                    placement, prim, ..
+                } => Some((placement, prim)),
+            },
+        };
+        Some((id, self.hit_record(ray, found)))
+    }
+
+    /// The nearest hit on `ray` as the search found it (its top-level
+    /// primitive and where it lies), before the full hit record: kept
+    /// small, so that only the one record built at the end is large.
+    fn nearest<C: SplitCounters>(&self, ray: &Ray, counters: &mut C) -> Option<(u32, Found)> {
         let (ray32, t0) = self.frame.f32_ray(ray)?;
         let n_world = self.world.len() as u32;
         let mut best: Option<(u32, Found)> = None;
@@ -545,48 +563,40 @@ impl Tracer {
             Some(cull_distance(found.t() - t0))
         });
         counters.merge(inner);
-        let (top, found) = best?;
-        let id = HitId {
-            primitive: top,
-            shared: match found {
-                Found::World(..) => None,
-                Found::Shared {
-                    placement, prim, ..
-                } => Some((placement, prim)),
-            },
-        };
-        Some((
-            id,
-            match found {
-                Found::World(prim, c) => self.world.hit(prim as usize, ray, c),
-                Found::Shared {
-                    placement,
-                    prim,
+        best
+    }
+
+    /// The full hit record of `found` on `ray`, in world space.
+    fn hit_record(&self, ray: &Ray, found: Found) -> Hit<'_> {
+        match found {
+            Found::World(prim, c) => self.world.hit(prim as usize, ray, c),
+            Found::Shared {
+                placement,
+                prim,
+                candidate,
+            } => {
+                let p = &self.placements[placement as usize];
+                let local = self.shared[p.geometry as usize].scene.hit(
+                    prim as usize,
+                    &local_ray(p, ray),
                     candidate,
-                } => {
-                    let p = &self.placements[placement as usize];
-                    let local = self.shared[p.geometry as usize].scene.hit(
-                        prim as usize,
-                        &local_ray(p, ray),
-                        candidate,
-                    );
-                    Hit {
-                        t: candidate.t,
-                        point: ray.at(candidate.t),
-                        normal: p.normal_to_world(local.normal),
-                        uv: local.uv,
-                        color: local.color,
-                        // Geometry space to world: the inverse of the placement's.
-                        shadow_offset: if local.shadow_offset == DVec3::ZERO {
-                            DVec3::ZERO
-                        } else {
-                            p.inverse.matrix3.inverse() * local.shadow_offset
-                        },
-                        shader: local.shader,
-                    }
+                );
+                Hit {
+                    t: candidate.t,
+                    point: ray.at(candidate.t),
+                    normal: p.normal_to_world(local.normal),
+                    uv: local.uv,
+                    color: local.color,
+                    // Geometry space to world: the inverse of the placement's.
+                    shadow_offset: if local.shadow_offset == DVec3::ZERO {
+                        DVec3::ZERO
+                    } else {
+                        p.inverse.matrix3.inverse() * local.shadow_offset
+                    },
+                    shader: local.shader,
                 }
-            },
-        ))
+            }
+        }
     }
 
     /// Whether anything lies on `ray`.
