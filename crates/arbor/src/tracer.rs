@@ -118,17 +118,30 @@ impl Frame {
     fn f32_ray(&self, ray: &Ray) -> Option<(TraversalRay, f64)> {
         let (lo, hi) = self.bounds?;
         let (o, d, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
-        let inv = d.recip();
-        let a = (lo - o) * inv;
-        let b = (hi - o) * inv;
-        let on_plane = a.is_nan_mask() | b.is_nan_mask();
-        let near = DVec3::select(on_plane, DVec3::NEG_INFINITY, a.min(b)).max_element();
-        let far = DVec3::select(on_plane, DVec3::INFINITY, a.max(b)).min_element();
-        let t0 = near.max(tmin);
-        // Written so that a NaN (a degenerate ray) also misses.
-        if t0.partial_cmp(&far.min(tmax)).is_none_or(|o| o.is_gt()) {
-            return None;
-        }
+        let t0 = if tmin >= 0.0 && o.cmpge(lo).all() && o.cmple(hi).all() {
+            // From inside the bounds (shadow and secondary rays, a camera
+            // in the scene) the entry below is `tmin` itself, without its
+            // three divisions. The test below would also drop a ray whose
+            // `tmin` lies past its exit; no hit lies there (the bounds are
+            // padded well beyond every primitive), so answers are the same.
+            if !(tmin <= tmax) {
+                return None;
+            }
+            tmin
+        } else {
+            let inv = d.recip();
+            let a = (lo - o) * inv;
+            let b = (hi - o) * inv;
+            let on_plane = a.is_nan_mask() | b.is_nan_mask();
+            let near = DVec3::select(on_plane, DVec3::NEG_INFINITY, a.min(b)).max_element();
+            let far = DVec3::select(on_plane, DVec3::INFINITY, a.max(b)).min_element();
+            let t0 = near.max(tmin);
+            // Written so that a NaN (a degenerate ray) also misses.
+            if t0.partial_cmp(&far.min(tmax)).is_none_or(|o| o.is_gt()) {
+                return None;
+            }
+            t0
+        };
         let start = ray.at(t0);
         let ray = TraversalRay::new(
             Vec3::new(start.x as f32, start.y as f32, start.z as f32),
