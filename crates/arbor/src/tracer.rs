@@ -719,4 +719,59 @@ mod tests {
         }
         assert_eq!(cull_distance(f64::INFINITY), f32::INFINITY);
     }
+
+    /// The tracer's culling (the `f32` ray from inside or outside the
+    /// bounds, the box pad, the culling distance) loses no hit: against a
+    /// plain loop over every primitive's exact test, on rays from inside
+    /// the scene (as shadow rays start), from outside it and from far away,
+    /// with open and closed intervals.
+    #[test]
+    fn culling_loses_nothing_against_every_exact_test() {
+        let scene = crate::default_scene::classroom();
+        let flat = FlatGeometry::new(&scene).unwrap();
+        let tracer = Tracer::build(FlattenedScene::from_world(flat), &TracerOptions::default());
+        let world = tracer.scene();
+        let (lo, hi) = tracer.frame.bounds.unwrap();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut random = move || {
+            // SplitMix64, as a fixed sequence of numbers in [0, 1).
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            (z ^ (z >> 31)) as f64 / 2f64.powi(64)
+        };
+        let (mut hits, mut inside) = (0, 0);
+        for k in 0..3000 {
+            // Origins in the bounds grown by half their size on each side,
+            // and every tenth ray from a hundred times as far.
+            let grow = if k % 10 == 0 { 100.0 } else { 0.5 };
+            let size = hi - lo;
+            let o = lo - grow * size
+                + DVec3::new(random(), random(), random()) * size * (1.0 + 2.0 * grow);
+            // Half of them aimed at a point of the scene (hits), half anywhere.
+            let d = if k % 2 == 0 {
+                lo + DVec3::new(random(), random(), random()) * size - o
+            } else {
+                DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5)
+            };
+            let (tmin, tmax) = match k % 3 {
+                0 => (0.0, f64::INFINITY),
+                1 => (1e-6, 1.0),
+                _ => (random(), 1.0 + 10.0 * random()),
+            };
+            let ray = Ray::new(o, d, tmin, tmax);
+            inside += usize::from(o.cmpge(lo).all() && o.cmple(hi).all());
+            let brute = (0..world.len())
+                .filter_map(|i| world.intersect(i, &ray).map(|c| (c.t, i)))
+                .min_by(|a, b| a.partial_cmp(b).unwrap());
+            let found = tracer.closest(&ray).map(|h| h.t);
+            assert_eq!(found, brute.map(|(t, _)| t), "ray {k}: {ray:?}");
+            assert_eq!(tracer.occluded(&ray), brute.is_some(), "ray {k}: {ray:?}");
+            hits += usize::from(brute.is_some());
+        }
+        // Both kinds of origin, and enough hits to mean something.
+        assert!(inside > 300 && inside < 2700, "{inside} origins inside");
+        assert!(hits > 300, "{hits} hits");
+    }
 }
