@@ -461,8 +461,8 @@ impl FlatGeometry {
     /// triangles).
     pub fn intersect(&self, i: usize, ray: &Ray) -> Option<Candidate> {
         let is2015 = self.variant == Variant::Cornell2015;
-        if let Some(p) = self.plain_triangles[i] {
-            return triangle::intersect(p, ray, is2015).map(|(t, b, g)| Candidate {
+        if let Some(p) = &self.plain_triangles[i] {
+            return triangle::intersect(*p, ray, is2015).map(|(t, b, g)| Candidate {
                 t,
                 aux: DVec3::new(b, g, 0.0),
             });

@@ -7,6 +7,7 @@ use crate::ray::Ray;
 /// Intersects `ray` with triangle `[p0, p1, p2]`; returns `(t, β, γ)`
 /// (weights `(1-β-γ, β, γ)`) when `t` lies in the ray's interval (`closed`
 /// selects `[tmin, tmax]` instead of `(tmin, tmax)`). Two-sided.
+#[inline]
 pub fn intersect([p0, p1, p2]: [DVec3; 3], ray: &Ray, closed: bool) -> Option<(f64, f64, f64)> {
     let (o, w, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
     let (a, b, c) = (p0.x - p1.x, p0.y - p1.y, p0.z - p1.z);
