@@ -124,7 +124,7 @@ impl Frame {
             // three divisions. The test below would also drop a ray whose
             // `tmin` lies past its exit; no hit lies there (the bounds are
             // padded well beyond every primitive), so answers are the same.
-            if !(tmin <= tmax) {
+            if tmin.partial_cmp(&tmax).is_none_or(|o| o.is_gt()) {
                 return None;
             }
             tmin
