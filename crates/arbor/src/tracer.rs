@@ -12,7 +12,8 @@
 //!    pad `p = 2^-19 M`, where `M` is the largest coordinate magnitude of the
 //!    scene's bounds.
 //! 2. The `f64` ray is first advanced to where it enters the (padded) scene
-//!    box, at `t0`; only then is it rounded to `f32`. Rounding the origin
+//!    box, at `t0` (`tmin` itself for a ray that starts inside, as every
+//!    shadow ray does); only then is it rounded to `f32`. Rounding the origin
 //!    (now within `M` of the scene) and the direction moves the point at any
 //!    parameter inside the scene by at most about `9 u M = 2^-20.8 M`
 //!    (`u = 2^-24`; the origin contributes `u M`, the direction `u t |d|` with
