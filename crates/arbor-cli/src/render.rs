@@ -297,7 +297,7 @@ fn trace_image(args: &RenderArgs, job: &Job, tracer: &Tracer) -> anyhow::Result<
     };
     // Previews for --preview-every and SIGUSR1 (pictures only: a `.part`
     // output has no picture to show).
-    let preview = Preview::new(job.part.is_none());
+    let preview = Preview::new();
     let film = std::thread::scope(|threads| {
         if job.part.is_none() {
             let preview = &preview;
@@ -438,8 +438,6 @@ fn render_counted(
 /// film; a preview is a copy of it taken when the next tile finishes after
 /// the writer asked, so a render nobody previews copies nothing.
 struct Preview {
-    /// Whether previews can be asked for (not for a `.part` output).
-    enabled: bool,
     /// Set by the writer when a preview is due, cleared by the tile that
     /// answers it.
     wanted: AtomicBool,
@@ -459,9 +457,8 @@ struct PreviewState {
 }
 
 impl Preview {
-    fn new(enabled: bool) -> Preview {
+    fn new() -> Preview {
         Preview {
-            enabled,
             wanted: AtomicBool::new(false),
             state: Default::default(),
             written: AtomicBool::new(false),
@@ -475,7 +472,7 @@ impl Preview {
     /// Called as each tile finishes, with the film so far: copies it if
     /// the writer asked for a preview.
     fn tile_done(&self, film: &arbor::film::Film) {
-        if self.enabled && self.wanted.swap(false, Ordering::Relaxed) {
+        if self.wanted.swap(false, Ordering::Relaxed) {
             self.lock().snapshot = Some(film.clone());
             self.state.1.notify_all();
         }

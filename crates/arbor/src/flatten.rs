@@ -462,10 +462,7 @@ impl FlatGeometry {
     pub fn intersect(&self, i: usize, ray: &Ray) -> Option<Candidate> {
         let is2015 = self.variant == Variant::Cornell2015;
         if let Some(p) = &self.plain_triangles[i] {
-            return triangle::intersect(*p, ray, is2015).map(|(t, b, g)| Candidate {
-                t,
-                aux: DVec3::new(b, g, 0.0),
-            });
+            return triangle_candidate(*p, ray, is2015);
         }
         let prim = &self.primitives[i];
         let object_ray = match self.transform(prim.transform) {
@@ -494,10 +491,7 @@ impl FlatGeometry {
                 .map(|(t, n)| Candidate { t, aux: n }),
             Shape::Triangle { mesh, index } => {
                 let (_, p) = self.triangle(mesh, index);
-                triangle::intersect(p, ray, is2015).map(|(t, b, g)| Candidate {
-                    t,
-                    aux: DVec3::new(b, g, 0.0),
-                })
+                triangle_candidate(p, ray, is2015)
             }
         }
     }
@@ -601,6 +595,16 @@ impl FlatGeometry {
             shader: &self.shaders[prim.shader as usize],
         }
     }
+}
+
+/// The spec's triangle test as a candidate: `t`, and the barycentrics
+/// `(β, γ)` kept for the hit record.
+#[inline]
+fn triangle_candidate(p: [DVec3; 3], ray: &Ray, closed: bool) -> Option<Candidate> {
+    triangle::intersect(p, ray, closed).map(|(t, b, g)| Candidate {
+        t,
+        aux: DVec3::new(b, g, 0.0),
+    })
 }
 
 /// Rounds an `f64` box outward to `f32` and grows it by `pad` on every side.
