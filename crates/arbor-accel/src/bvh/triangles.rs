@@ -309,25 +309,29 @@ impl TriangleBvh {
                 f(MeshHit { prim, hit });
             }
         }
-        self.bvh.closest_leaves(
-            *ray,
+        // Nothing prunes the walk (the interval never shrinks), so the
+        // children's order is worthless: the unordered any-hit walk, whose
+        // leaf callback here never ends it.
+        self.bvh.occluded_leaves(
+            ray,
             counters,
             // Inlined into the AVX2 traversal, so the lane test is compiled
             // for AVX2 too (out of line, its intrinsics became calls).
             #[inline(always)]
             |first, count, ray, counters| {
                 let shear = &*shear.get_or_insert_with(|| RayShear::new(ray));
+                let mut ray = *ray;
                 self.test_leaf::<false, true, C>(
                     first,
                     count,
-                    ray,
+                    &mut ray,
                     shear,
                     counters,
                     |prim, hit, _| {
                         f(MeshHit { prim, hit });
                         false
                     },
-                );
+                )
             },
             |first| prefetch(&self.packets[first]),
         );
