@@ -3,7 +3,7 @@
 //! even, inside/outside and signed distance against analytic shapes.
 
 use arbor_accel::numerics::{intersect_triangle_owned, intersect_triangle_sheared, RayShear};
-use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, Vec3};
+use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, Vec3, INSIDE_DIRECTION};
 mod common;
 
 use glam::DVec3;
@@ -399,4 +399,77 @@ fn empty_meshes_answer_nothing() {
     assert!(!mesh.contains(Vec3::ZERO));
     assert_eq!(mesh.closest_point(Vec3::ZERO, f32::INFINITY), None);
     assert_eq!(mesh.signed_distance(Vec3::ZERO), f32::INFINITY);
+}
+
+/// The parity of the crossings along the inside test's ray from `p`: what
+/// `contains` must answer, however it finds it.
+fn ray_parity(mesh: &MeshAccel, p: Vec3) -> bool {
+    mesh.count(&Ray::new(p, INSIDE_DIRECTION, 0.0, f32::INFINITY)) % 2 == 1
+}
+
+/// Points near a mesh's features: its vertices and edge midpoints, nudged
+/// by `nudge` along each axis both ways.
+fn near_features(v: &[Vec3], t: &[[u32; 3]], nudge: f32) -> Vec<Vec3> {
+    let mut features: Vec<Vec3> = v.to_vec();
+    for tri in t {
+        let [a, b, c] = tri.map(|i| v[i as usize]);
+        features.extend([(a + b) * 0.5, (b + c) * 0.5, (a + b + c) / 3.0]);
+    }
+    let mut points = Vec::new();
+    for f in features {
+        points.push(f);
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            points.push(f + axis * nudge);
+            points.push(f - axis * nudge);
+        }
+    }
+    points
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// `contains` (a grid lookup where the grid knows, the ray elsewhere)
+    /// answers the ray's parity everywhere: random open meshes (whose odd
+    /// edges' strips the grid must respect), points anywhere, on and near
+    /// vertices, edges and faces.
+    #[test]
+    fn inside_answers_the_rays_parity_on_random_meshes(
+        (v, t) in mesh(),
+        points in prop::collection::vec(point(), 1..64),
+        nudge in prop_oneof![Just(1e-6f32), Just(1e-3), Just(0.05)],
+    ) {
+        let mesh = MeshAccel::build(v.clone(), t.clone(), AccelKind::DEFAULT).unwrap();
+        for p in points.into_iter().chain(near_features(&v, &t, nudge)) {
+            prop_assert_eq!(mesh.contains(p), ray_parity(&mesh, p), "{}", p);
+        }
+        // The batch form answers the same (it builds the grid too).
+        let lattice: Vec<Vec3> = (0..512)
+            .map(|i| Vec3::new((i % 8) as f32, ((i / 8) % 8) as f32, (i / 64) as f32) - Vec3::splat(3.5))
+            .collect();
+        let batch = mesh.contains_batch(&lattice);
+        for (p, inside) in lattice.iter().zip(batch) {
+            prop_assert_eq!(inside, ray_parity(&mesh, *p), "{}", p);
+        }
+    }
+
+    /// The same on closed meshes with bumps (the grid without strips),
+    /// far from the origin and small, so that rounding is at its worst.
+    #[test]
+    fn inside_answers_the_rays_parity_on_bumpy_closed_meshes(
+        bumps in prop::collection::vec(0.7f32..1.3, 42),
+        offset in prop_oneof![Just(Vec3::ZERO), Just(Vec3::new(1000.0, -2000.0, 500.0))],
+        scale in prop_oneof![Just(1.0f32), Just(1e-3)],
+        points in prop::collection::vec(point(), 1..64),
+        nudge in prop_oneof![Just(1e-7f32), Just(1e-4), Just(0.02)],
+    ) {
+        let (v, t) = icosphere(1);
+        let v: Vec<Vec3> = v.iter().zip(bumps.iter().cycle()).map(|(&p, &r)| p * r * scale + offset).collect();
+        let mesh = MeshAccel::build(v.clone(), t.clone(), AccelKind::DEFAULT).unwrap();
+        prop_assert_eq!(mesh.open_edges(), 0);
+        let scattered = points.iter().map(|&p| p * 0.4 * scale + offset);
+        for p in scattered.chain(near_features(&v, &t, nudge * scale)) {
+            prop_assert_eq!(mesh.contains(p), ray_parity(&mesh, p), "{}", p);
+        }
+    }
 }

@@ -8,9 +8,15 @@
 //! crossing): the answer is then that of the fixed direction
 //! [`INSIDE_DIRECTION`], and [`MeshAccel::open_edges`] says whether a mesh
 //! is closed. Points on the surface may be answered either way.
+//!
+//! For a closed mesh most points need no ray: the side grid
+//! (`side_grid.rs`) knows the answer for every point not near the surface,
+//! and gives the ray's answer there.
 
-use std::collections::HashMap;
+use rayon::prelude::*;
 
+use super::edges::EdgeUses;
+use super::side_grid::Side;
 use super::{MeshAccel, PER_TASK};
 use crate::{morton, Ray, Vec3};
 
@@ -28,13 +34,50 @@ impl MeshAccel {
         if !p.is_finite() {
             return false;
         }
+        match self.side_grid().map(|grid| grid.side(p)) {
+            Some(Side::Inside) => true,
+            Some(Side::Outside) => false,
+            Some(Side::Near) | None => self.ray_parity(p),
+        }
+    }
+
+    /// The parity of the crossings along the ray from `p` in
+    /// [`INSIDE_DIRECTION`]: odd is inside.
+    pub(super) fn ray_parity(&self, p: Vec3) -> bool {
         self.count(&Ray::new(p, INSIDE_DIRECTION, 0.0, f32::INFINITY)) % 2 == 1
     }
 
     /// [`MeshAccel::contains`] for every point, in parallel (in Morton order
     /// of the points, as [`MeshAccel::closest_point_batch`]).
     pub fn contains_batch(&self, points: &[Vec3]) -> Vec<bool> {
-        morton::answer_in_order(points, PER_TASK, |i| self.contains(points[i]))
+        let Some(grid) = self.side_grid() else {
+            return morton::answer_in_order(points, PER_TASK, |i| self.contains(points[i]));
+        };
+        // The lookups in the points' order (sorting them would cost more
+        // than the lookups), then the few near the surface by ray, in
+        // Morton order.
+        let sides: Vec<Side> = points
+            .par_iter()
+            .with_min_len(4 * PER_TASK)
+            .map(|&p| {
+                if p.is_finite() {
+                    grid.side(p)
+                } else {
+                    Side::Outside
+                }
+            })
+            .collect();
+        let near: Vec<u32> = (0..points.len() as u32)
+            .filter(|&i| sides[i as usize] == Side::Near)
+            .collect();
+        let near_points: Vec<Vec3> = near.iter().map(|&i| points[i as usize]).collect();
+        let near_answers =
+            morton::answer_in_order(&near_points, PER_TASK, |k| self.ray_parity(near_points[k]));
+        let mut inside: Vec<bool> = sides.iter().map(|&s| s == Side::Inside).collect();
+        for (&i, answer) in near.iter().zip(near_answers) {
+            inside[i as usize] = answer;
+        }
+        inside
     }
 
     /// The distance from `p` to the mesh, negative inside: the sign is
@@ -69,32 +112,8 @@ impl MeshAccel {
     /// triangle) counts as closed when its surface is. Edges of zero length
     /// are ignored.
     pub fn open_edges(&self) -> usize {
-        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
-        let mut id_of = |v: Vec3| {
-            // +0 and -0 are the same point.
-            let key = (v + Vec3::ZERO).to_array().map(f32::to_bits);
-            let next = ids.len() as u32;
-            *ids.entry(key).or_insert(next)
-        };
-        let welded: Vec<u32> = self.vertices().iter().map(|&v| id_of(v)).collect();
-        // Per undirected edge: how many triangles use it, and the balance of
-        // their directions (+1 one way, -1 the other).
-        let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::new();
-        for t in self.triangles() {
-            let v = t.map(|i| welded[i as usize]);
-            for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
-                if a == b {
-                    continue;
-                }
-                let (key, dir) = if a < b { ((a, b), 1) } else { ((b, a), -1) };
-                let e = edges.entry(key).or_insert((0, 0));
-                e.0 += 1;
-                e.1 += dir;
-            }
-        }
-        edges
-            .values()
-            .filter(|&&(uses, balance)| uses != 2 || balance != 0)
-            .count()
+        *self
+            .open_edges
+            .get_or_init(|| EdgeUses::of(self.vertices(), self.triangles()).open())
     }
 }

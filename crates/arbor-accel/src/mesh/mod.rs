@@ -12,7 +12,9 @@
 
 mod closest_point;
 mod crossings;
+mod edges;
 mod inside;
+mod side_grid;
 
 use std::sync::OnceLock;
 
@@ -102,6 +104,11 @@ pub struct MeshAccel {
     /// The structure of the point queries, a binary SAH BVH whatever `kind`
     /// is (nearest-first search needs a tree), built on first use.
     points: OnceLock<Bvh>,
+    /// [`MeshAccel::open_edges`], counted on first use.
+    open_edges: OnceLock<usize>,
+    /// The inside test's lookup grid, built on first use (`None` where it
+    /// would not pay).
+    sides: OnceLock<Option<side_grid::SideGrid>>,
 }
 
 /// What answers the ray queries.
@@ -172,6 +179,8 @@ impl MeshAccel {
             kind,
             index,
             points: OnceLock::new(),
+            open_edges: OnceLock::new(),
+            sides: OnceLock::new(),
         })
     }
 
@@ -352,10 +361,26 @@ impl MeshAccel {
         )
     }
 
-    /// Builds the point queries' structure now rather than on the first
-    /// point query (for timing the build apart from the queries).
+    /// Builds the point queries' structures now rather than on the first
+    /// point query (for timing the build apart from the queries): the
+    /// closest-point tree and, for a closed mesh, the inside test's grid.
     pub fn prepare_point_queries(&self) {
         self.point_bvh();
+        self.side_grid();
+    }
+
+    /// The inside test's lookup grid, built on first use; `None` where it
+    /// would not pay (then the ray answers every point).
+    fn side_grid(&self) -> Option<&side_grid::SideGrid> {
+        self.sides
+            .get_or_init(|| {
+                let edges = edges::EdgeUses::of(self.vertices(), self.triangles());
+                let _ = self.open_edges.set(edges.open());
+                side_grid::SideGrid::build(self.vertices(), self.triangles(), &edges.odd(), |p| {
+                    self.ray_parity(p)
+                })
+            })
+            .as_ref()
     }
 
     /// The binary BVH of the point queries (built on first use).
