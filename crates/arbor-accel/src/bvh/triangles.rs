@@ -198,6 +198,7 @@ impl TriangleBvh {
     /// is the ray's own closest hit; of several triangles hit at exactly
     /// the same distance, the packet may report another one than the
     /// single ray would (see `bvh/packet.rs`).
+    #[inline(never)]
     pub fn closest_packet<C: Counters>(
         &self,
         rays: &[Ray; PACKET],
