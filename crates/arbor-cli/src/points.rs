@@ -57,7 +57,7 @@ pub struct NearestArgs {
 
 /// Runs `arbor inside`: one byte per point, 1 inside, 0 outside.
 pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
-    run(&args.common, "inside", true, |mesh, points, _| {
+    run(&args.common, "inside", false, true, |mesh, points, _| {
         let inside = mesh.contains_batch(points);
         let found = inside.iter().filter(|&&i| i).count();
         (inside.into_iter().map(u8::from).collect(), found)
@@ -70,45 +70,52 @@ pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
 pub fn run_nearest(args: NearestArgs) -> anyhow::Result<()> {
     let signed = args.signed;
     let name = if signed { "signed_distance" } else { "nearest" };
-    run(&args.common, name, signed, move |mesh, points, limits| {
-        let near = mesh.closest_point_batch(points, limits);
-        let inside = if signed {
-            mesh.contains_batch(points)
-        } else {
-            Vec::new()
-        };
-        let mut bytes = Vec::with_capacity(points.len() * NEAREST_BYTES);
-        let mut found = 0;
-        for (i, near) in near.iter().enumerate() {
-            let (point, prim, u, v, distance) = match near {
-                Some(c) => {
-                    found += 1;
-                    let sign = if signed && inside[i] { -1.0 } else { 1.0 };
-                    (c.point, c.prim, c.u, c.v, sign * c.distance)
-                }
-                None => (Vec3::ZERO, NONE, 0.0, 0.0, f32::INFINITY),
+    run(
+        &args.common,
+        name,
+        true,
+        signed,
+        move |mesh, points, limits| {
+            let near = mesh.closest_point_batch(points, limits);
+            let inside = if signed {
+                mesh.contains_batch(points)
+            } else {
+                Vec::new()
             };
-            for x in point.to_array() {
-                bytes.extend_from_slice(&x.to_le_bytes());
+            let mut bytes = Vec::with_capacity(points.len() * NEAREST_BYTES);
+            let mut found = 0;
+            for (i, near) in near.iter().enumerate() {
+                let (point, prim, u, v, distance) = match near {
+                    Some(c) => {
+                        found += 1;
+                        let sign = if signed && inside[i] { -1.0 } else { 1.0 };
+                        (c.point, c.prim, c.u, c.v, sign * c.distance)
+                    }
+                    None => (Vec3::ZERO, NONE, 0.0, 0.0, f32::INFINITY),
+                };
+                for x in point.to_array() {
+                    bytes.extend_from_slice(&x.to_le_bytes());
+                }
+                bytes.extend_from_slice(&prim.to_le_bytes());
+                for x in [u, v, distance] {
+                    bytes.extend_from_slice(&x.to_le_bytes());
+                }
+                bytes.extend_from_slice(&[0; 4]);
             }
-            bytes.extend_from_slice(&prim.to_le_bytes());
-            for x in [u, v, distance] {
-                bytes.extend_from_slice(&x.to_le_bytes());
-            }
-            bytes.extend_from_slice(&[0; 4]);
-        }
-        (bytes, found)
-    })
+            (bytes, found)
+        },
+    )
 }
 
 /// Loads, builds, reads the points, answers `query` for them `repeat`
 /// times and writes the answers and a one-line JSON summary. `query`
 /// returns the answer bytes and how many points it found something for;
-/// `uses_inside` says whether it answers inside/outside (then an open mesh
-/// is warned about).
+/// `uses_closest` and `uses_inside` say whether it answers closest points
+/// and inside/outside (then an open mesh is warned about).
 fn run(
     args: &PointArgs,
     name: &str,
+    uses_closest: bool,
     uses_inside: bool,
     query: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
 ) -> anyhow::Result<()> {
@@ -120,8 +127,13 @@ fn run(
     let (mesh, build_ms) = pool.install(|| {
         let (mesh, ms) = batch::load_and_build(&args.mesh, kind, repeat)?;
         let start = std::time::Instant::now();
-        // Part of the build: the point queries' own structure.
-        mesh.prepare_point_queries();
+        // Part of the build: the structures this query uses.
+        if uses_closest {
+            mesh.prepare_closest_points();
+        }
+        if uses_inside {
+            mesh.prepare_inside();
+        }
         anyhow::Ok((mesh, ms + batch::ms_since(start)))
     })?;
     if mesh.triangles().is_empty() {

@@ -29,7 +29,8 @@ impl MeshAccel {
     /// Whether `p` lies inside the mesh: an odd number of crossings along
     /// the ray from `p` in [`INSIDE_DIRECTION`]. Exact for a closed mesh;
     /// see the module documentation for meshes with holes. A non-finite
-    /// point is outside.
+    /// point is outside. The first call builds the side grid, which then
+    /// answers most points without a ray (the same answers).
     pub fn contains(&self, p: Vec3) -> bool {
         if !p.is_finite() {
             return false;

@@ -362,10 +362,24 @@ impl MeshAccel {
     }
 
     /// Builds the point queries' structures now rather than on the first
-    /// point query (for timing the build apart from the queries): the
-    /// closest-point tree and, for a closed mesh, the inside test's grid.
+    /// point query (for timing the build apart from the queries): both of
+    /// [`MeshAccel::prepare_closest_points`] and
+    /// [`MeshAccel::prepare_inside`].
     pub fn prepare_point_queries(&self) {
+        self.prepare_closest_points();
+        self.prepare_inside();
+    }
+
+    /// Builds the closest-point tree now (it is otherwise built by the first
+    /// closest-point or signed-distance query).
+    pub fn prepare_closest_points(&self) {
         self.point_bvh();
+    }
+
+    /// Builds the inside test's grid now (where it pays: see
+    /// [`MeshAccel::contains`]; otherwise built by the first inside or
+    /// signed-distance query).
+    pub fn prepare_inside(&self) {
         self.side_grid();
     }
 
