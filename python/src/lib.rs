@@ -5,6 +5,7 @@
 //! arrays.
 
 mod arrays;
+mod column;
 mod image;
 mod mesh;
 mod points;

@@ -15,6 +15,7 @@ use pyo3::types::PyDict;
 use rayon::prelude::*;
 
 use crate::arrays::{f32_row, f64_row, Flat, ScalarView, Scalars, Vec3Array, Vec3View};
+use crate::column::Column;
 
 /// The four ray arguments of a query, checked to agree in length.
 pub struct RayArgs<'py> {
@@ -197,19 +198,6 @@ impl HitColumns {
         }
     }
 
-    /// Sets every column's length to `n`.
-    ///
-    /// # Safety
-    /// Each column's first `n` slots must have been written.
-    unsafe fn set_len(&mut self, n: usize) {
-        self.t.set_len(n);
-        self.triangle.set_len(n);
-        self.u.set_len(n);
-        self.v.set_len(n);
-        self.point.set_len(n);
-        self.normal.set_len(n);
-    }
-
     /// `ray`'s hit on `mesh`: the point is the ray's at `t`, the normal the
     /// triangle's.
     pub fn push_hit(&mut self, mesh: &MeshAccel, ray: &Ray, hit: &MeshHit) {
@@ -245,33 +233,58 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
         .to_array()
 }
 
-/// The closest hit of every ray, as columns in fresh memory.
-pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
+/// The closest hit of every ray, as columns in recycled memory (see
+/// `column.rs`), every entry written.
+pub struct ClosestColumns {
+    t: Column<f32>,
+    triangle: Column<i64>,
+    u: Column<f32>,
+    v: Column<f32>,
+    point: Column<[f32; 3]>,
+    normal: Column<[f32; 3]>,
+}
+
+impl ClosestColumns {
+    /// The dict `Mesh.intersect` returns.
+    pub fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+        let out = PyDict::new(py);
+        // SAFETY: `closest` wrote every slot of every column.
+        unsafe {
+            out.set_item("t", self.t.into_array(py)?)?;
+            out.set_item("triangle", self.triangle.into_array(py)?)?;
+            out.set_item("u", self.u.into_array(py)?)?;
+            out.set_item("v", self.v.into_array(py)?)?;
+            out.set_item("point", self.point.into_rows(py)?)?;
+            out.set_item("normal", self.normal.into_rows(py)?)?;
+        }
+        Ok(out)
+    }
+}
+
+/// The closest hit of every ray, as columns.
+pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> ClosestColumns {
     let n = views.len();
-    // Fresh memory, not filled first (on huge pages where the kernel
-    // offers them, see `fresh_column`): `closest_into` writes every entry.
-    let mut c = HitColumns {
-        t: fresh_column(n),
-        triangle: fresh_column(n),
-        u: fresh_column(n),
-        v: fresh_column(n),
-        point: fresh_column(n),
-        normal: fresh_column(n),
+    // Not filled first: `closest_into` writes every entry.
+    let mut c = ClosestColumns {
+        t: Column::uninit(n),
+        triangle: Column::uninit(n),
+        u: Column::uninit(n),
+        v: Column::uninit(n),
+        point: Column::uninit(n),
+        normal: Column::uninit(n),
     };
     closest_into(
         mesh,
         views,
         HitSlots {
-            t: &mut c.t.spare_capacity_mut()[..n],
-            triangle: &mut c.triangle.spare_capacity_mut()[..n],
-            u: &mut c.u.spare_capacity_mut()[..n],
-            v: &mut c.v.spare_capacity_mut()[..n],
-            point: &mut c.point.spare_capacity_mut()[..n],
-            normal: &mut c.normal.spare_capacity_mut()[..n],
+            t: c.t.slots(),
+            triangle: c.triangle.slots(),
+            u: c.u.slots(),
+            v: c.v.slots(),
+            point: c.point.slots(),
+            normal: c.normal.slots(),
         },
     );
-    // SAFETY: `closest_into` wrote slots 0..n of every column.
-    unsafe { c.set_len(n) };
     c
 }
 
@@ -448,30 +461,6 @@ impl<'py> HitArrays<'py> {
             }
         }
     }
-}
-
-/// An empty vector with room for `n` values, whose memory the kernel is
-/// asked to back with transparent huge pages (Linux, when it spans one):
-/// a result column is written once and handed to NumPy, so its every 4 KB
-/// page would otherwise cost a page fault, and faults taken by both
-/// threads at once serialise in the kernel. On buddha100k's 786,432 camera
-/// rays that was most of the binding's time beyond the traversal.
-pub fn fresh_column<T>(n: usize) -> Vec<T> {
-    let column = Vec::with_capacity(n);
-    #[cfg(target_os = "linux")]
-    {
-        const HUGE: usize = 2 << 20;
-        let start = column.as_ptr() as usize;
-        let end = start + column.capacity() * std::mem::size_of::<T>();
-        let (lo, hi) = (start.next_multiple_of(HUGE), end / HUGE * HUGE);
-        if hi > lo {
-            // SAFETY: advice only, on whole pages inside the vector's own
-            // allocation; nothing is read or written. A refusal (THP off,
-            // an old kernel) leaves ordinary pages, so the result is unused.
-            unsafe { libc::madvise(lo as *mut libc::c_void, hi - lo, libc::MADV_HUGEPAGE) };
-        }
-    }
-    column
 }
 
 /// Every hit of every ray, as columns, with the index of each hit's ray.

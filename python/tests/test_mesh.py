@@ -143,6 +143,33 @@ def test_intersect_into_out_reuses_the_arrays_and_answers_alike(rng):
         np.testing.assert_array_equal(out[key], fresh[key])
 
 
+def test_results_in_recycled_memory_stay_their_own(rng):
+    # Columns of a megabyte or more come from memory earlier results let go
+    # of: a later call may reuse a dropped result's memory, never a live one.
+    mesh = arbor.Mesh(*random_soup(rng))
+    k = 300_000
+    a_rays = random_rays(rng, k)
+    b_rays = random_rays(rng, k)
+    a = mesh.intersect(*a_rays)
+    b = mesh.intersect(*b_rays)
+    assert np.isfinite(a["t"]).sum() > 1000
+    a_copy = {key: value.copy() for key, value in a.items()}
+    b_copy = {key: value.copy() for key, value in b.items()}
+    a_memory = {value.ctypes.data for value in a.values()}
+    view = b["point"][::7]  # keeps b's point column alive
+    del b
+    del a  # the memory freed last is taken first
+    c = mesh.intersect(*a_rays)
+    d = mesh.intersect(*b_rays)
+    assert c["t"].ctypes.data in a_memory  # recycled
+    for key in a_copy:
+        np.testing.assert_array_equal(c[key], a_copy[key])
+        np.testing.assert_array_equal(d[key], b_copy[key])
+        assert c[key].flags.c_contiguous and c[key].flags.writeable
+    np.testing.assert_array_equal(view, b_copy["point"][::7])
+    assert view.ctypes.data not in {value.ctypes.data for value in (*c.values(), *d.values())}
+
+
 @pytest.mark.parametrize(
     "change, message",
     [
