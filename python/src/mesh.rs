@@ -130,6 +130,9 @@ impl Mesh {
     /// ``out``: a dict returned by an earlier call for as many rays, whose
     /// arrays are overwritten with this call's answers and returned (the
     /// same dict): a loop over batches of rays then allocates nothing.
+    /// Without ``out``, large result arrays reuse the memory of results
+    /// already let go of (so the kernel need not clear fresh pages), which
+    /// makes a plain loop nearly as fast.
     #[pyo3(signature = (origins, directions, tmin = None, tmax = None, out = None))]
     fn intersect<'py>(
         &self,
