@@ -26,15 +26,18 @@ const POOL_LIMIT: usize = 512 << 20;
 /// Freed buffers, oldest first.
 static POOL: Mutex<Vec<Vec<u64>>> = Mutex::new(Vec::new());
 
-/// A buffer of at least `words` 8-byte words: a pooled one no more than
-/// twice that size (a small column does not pin a large buffer), else a
-/// fresh one.
+/// A buffer of at least `words` 8-byte words: the smallest pooled one that
+/// holds them, if it is at most twice that size (so that the columns of one
+/// call each find their own size again, and a small column does not pin a
+/// large buffer), else a fresh one.
 fn take(words: usize) -> Vec<u64> {
     if words * 8 >= POOLED_FROM {
         let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
-        let fits = |b: &Vec<u64>| b.capacity() >= words && b.capacity() <= 2 * words;
-        if let Some(i) = pool.iter().rposition(fits) {
-            return pool.swap_remove(i);
+        let best = (0..pool.len())
+            .filter(|&i| (words..=2 * words).contains(&pool[i].capacity()))
+            .min_by_key(|&i| pool[i].capacity());
+        if let Some(i) = best {
+            return pool.remove(i);
         }
     }
     fresh(words)
