@@ -6,7 +6,7 @@ use std::mem::MaybeUninit;
 
 use numpy::ndarray::Array2;
 use numpy::{
-    IntoPyArray, PyArray, PyArray1, PyArray2, PyArrayMethods, PyReadwriteArray, PyReadwriteArray1,
+    IntoPyArray, PyArray, PyArray2, PyArrayMethods, PyReadwriteArray, PyReadwriteArray1,
     PyReadwriteArray2, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
@@ -173,55 +173,6 @@ pub fn rows3<'py>(py: Python<'py>, rows: Vec<[f32; 3]>) -> Bound<'py, PyArray2<f
         .into_pyarray(py)
 }
 
-/// Hits as the columns Python gets: `t`, `triangle`, `u`, `v`, `point`,
-/// `normal`, one entry per hit or miss.
-#[derive(Default)]
-pub struct HitColumns {
-    t: Vec<f32>,
-    triangle: Vec<i64>,
-    u: Vec<f32>,
-    v: Vec<f32>,
-    point: Vec<[f32; 3]>,
-    normal: Vec<[f32; 3]>,
-}
-
-impl HitColumns {
-    /// Columns for `n` entries.
-    pub fn with_capacity(n: usize) -> Self {
-        HitColumns {
-            t: Vec::with_capacity(n),
-            triangle: Vec::with_capacity(n),
-            u: Vec::with_capacity(n),
-            v: Vec::with_capacity(n),
-            point: Vec::with_capacity(n),
-            normal: Vec::with_capacity(n),
-        }
-    }
-
-    /// `ray`'s hit on `mesh`: the point is the ray's at `t`, the normal the
-    /// triangle's.
-    pub fn push_hit(&mut self, mesh: &MeshAccel, ray: &Ray, hit: &MeshHit) {
-        self.t.push(hit.hit.t);
-        self.triangle.push(i64::from(hit.prim));
-        self.u.push(hit.hit.u);
-        self.v.push(hit.hit.v);
-        self.point.push(ray.at(hit.hit.t).to_array());
-        self.normal.push(unit_normal(mesh, hit.prim));
-    }
-
-    /// The columns as a dict of NumPy arrays (no copies).
-    pub fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
-        let out = PyDict::new(py);
-        out.set_item("t", PyArray1::from_vec(py, self.t))?;
-        out.set_item("triangle", PyArray1::from_vec(py, self.triangle))?;
-        out.set_item("u", PyArray1::from_vec(py, self.u))?;
-        out.set_item("v", PyArray1::from_vec(py, self.v))?;
-        out.set_item("point", rows3(py, self.point))?;
-        out.set_item("normal", rows3(py, self.normal))?;
-        Ok(out)
-    }
-}
-
 /// The unit geometric normal `(p1 - p0) x (p2 - p0)` of triangle `prim`,
 /// computed in float64 (zero for a degenerate triangle).
 pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
@@ -233,9 +184,10 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
         .to_array()
 }
 
-/// The closest hit of every ray, as columns in recycled memory (see
-/// `column.rs`), every entry written.
-pub struct ClosestColumns {
+/// Hits as the columns Python gets (`t`, `triangle`, `u`, `v`, `point`,
+/// `normal`), in recycled memory (see `column.rs`); made only by
+/// [`closest`] and [`all`], which write every entry.
+pub struct HitColumns {
     t: Column<f32>,
     triangle: Column<i64>,
     u: Column<f32>,
@@ -244,11 +196,34 @@ pub struct ClosestColumns {
     normal: Column<[f32; 3]>,
 }
 
-impl ClosestColumns {
-    /// The dict `Mesh.intersect` returns.
+impl HitColumns {
+    /// Room for `n` entries, not yet written.
+    fn uninit(n: usize) -> Self {
+        HitColumns {
+            t: Column::uninit(n),
+            triangle: Column::uninit(n),
+            u: Column::uninit(n),
+            v: Column::uninit(n),
+            point: Column::uninit(n),
+            normal: Column::uninit(n),
+        }
+    }
+
+    fn slots(&mut self) -> HitSlots<'_> {
+        HitSlots {
+            t: self.t.slots(),
+            triangle: self.triangle.slots(),
+            u: self.u.slots(),
+            v: self.v.slots(),
+            point: self.point.slots(),
+            normal: self.normal.slots(),
+        }
+    }
+
+    /// The columns as a dict of NumPy arrays (no copies).
     pub fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
         let out = PyDict::new(py);
-        // SAFETY: `closest` wrote every slot of every column.
+        // SAFETY: `closest` and `all` wrote every slot of every column.
         unsafe {
             out.set_item("t", self.t.into_array(py)?)?;
             out.set_item("triangle", self.triangle.into_array(py)?)?;
@@ -262,29 +237,10 @@ impl ClosestColumns {
 }
 
 /// The closest hit of every ray, as columns.
-pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> ClosestColumns {
-    let n = views.len();
+pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
+    let mut c = HitColumns::uninit(views.len());
     // Not filled first: `closest_into` writes every entry.
-    let mut c = ClosestColumns {
-        t: Column::uninit(n),
-        triangle: Column::uninit(n),
-        u: Column::uninit(n),
-        v: Column::uninit(n),
-        point: Column::uninit(n),
-        normal: Column::uninit(n),
-    };
-    closest_into(
-        mesh,
-        views,
-        HitSlots {
-            t: c.t.slots(),
-            triangle: c.triangle.slots(),
-            u: c.u.slots(),
-            v: c.v.slots(),
-            point: c.point.slots(),
-            normal: c.normal.slots(),
-        },
-    );
+    closest_into(mesh, views, c.slots());
     c
 }
 
@@ -303,6 +259,37 @@ pub struct HitSlots<'a> {
     pub point: &'a mut [MaybeUninit<[f32; 3]>],
     /// Unit geometric normals.
     pub normal: &'a mut [MaybeUninit<[f32; 3]>],
+}
+
+impl HitSlots<'_> {
+    /// Writes entry `i`: `ray`'s hit on `mesh` (the point the ray's at `t`,
+    /// the normal the triangle's), or a miss (inf, -1 and NaN).
+    fn write(&mut self, i: usize, mesh: &MeshAccel, ray: &Ray, hit: Option<&MeshHit>) {
+        let (t, triangle, u, v, point, normal) = match hit {
+            Some(h) => (
+                h.hit.t,
+                i64::from(h.prim),
+                h.hit.u,
+                h.hit.v,
+                ray.at(h.hit.t).to_array(),
+                unit_normal(mesh, h.prim),
+            ),
+            None => (
+                f32::INFINITY,
+                -1,
+                f32::NAN,
+                f32::NAN,
+                [f32::NAN; 3],
+                [f32::NAN; 3],
+            ),
+        };
+        self.t[i].write(t);
+        self.triangle[i].write(triangle);
+        self.u[i].write(u);
+        self.v[i].write(v);
+        self.point[i].write(point);
+        self.normal[i].write(normal);
+    }
 }
 
 /// Writes the closest hit of every ray into `slots` (each column one slot
@@ -342,31 +329,16 @@ pub fn closest_into(mesh: &MeshAccel, views: RayViews<'_>, slots: HitSlots<'_>) 
                 hits.clear();
                 hits.resize(rays.len(), None);
                 mesh.closest_batch_into(rays, hits);
+                let mut chunk = HitSlots {
+                    t,
+                    triangle,
+                    u,
+                    v,
+                    point,
+                    normal,
+                };
                 for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
-                    let (ti, tri, ui, vi, p, nrm) = match hit {
-                        Some(h) => (
-                            h.hit.t,
-                            i64::from(h.prim),
-                            h.hit.u,
-                            h.hit.v,
-                            ray.at(h.hit.t).to_array(),
-                            unit_normal(mesh, h.prim),
-                        ),
-                        None => (
-                            f32::INFINITY,
-                            -1,
-                            f32::NAN,
-                            f32::NAN,
-                            [f32::NAN; 3],
-                            [f32::NAN; 3],
-                        ),
-                    };
-                    t[i].write(ti);
-                    triangle[i].write(tri);
-                    u[i].write(ui);
-                    v[i].write(vi);
-                    point[i].write(p);
-                    normal[i].write(nrm);
+                    chunk.write(i, mesh, ray, hit.as_ref());
                 }
             },
         );
@@ -466,12 +438,13 @@ impl<'py> HitArrays<'py> {
 /// Every hit of every ray, as columns, with the index of each hit's ray.
 pub fn all(mesh: &MeshAccel, rays: &[Ray]) -> (HitColumns, Vec<i64>) {
     let all = mesh.all_hits_batch(rays);
-    let mut c = HitColumns::with_capacity(all.hits.len());
+    let mut c = HitColumns::uninit(all.hits.len());
+    let mut slots = c.slots();
     let mut ray_of = Vec::with_capacity(all.hits.len());
-    let mut hits = all.hits.iter();
+    let mut hits = all.hits.iter().enumerate();
     for (i, (ray, &n)) in rays.iter().zip(&all.counts).enumerate() {
-        for hit in hits.by_ref().take(n as usize) {
-            c.push_hit(mesh, ray, hit);
+        for (k, hit) in hits.by_ref().take(n as usize) {
+            slots.write(k, mesh, ray, Some(hit));
             ray_of.push(i as i64);
         }
     }
