@@ -102,7 +102,11 @@ impl MeshAccel {
     /// [`MeshAccel::signed_distance`] for every point, in parallel (in Morton
     /// order of the points, as [`MeshAccel::closest_point_batch`]).
     pub fn signed_distance_batch(&self, points: &[Vec3]) -> Vec<f32> {
+        // Both built before the parallel loop: a worker building one inside
+        // the loop would run the build's own parallel steps while the
+        // other worker waits on it, or steal a query that waits on it.
         self.point_bvh();
+        self.side_grid();
         morton::answer_in_order(points, PER_TASK, |i| self.signed_distance(points[i]))
     }
 
