@@ -144,9 +144,13 @@ impl SideGrid {
         x + self.dims[0] * (y + self.dims[1] * z)
     }
 
-    /// The cell holding `p`, clamped to the grid.
-    fn cell_of(&self, p: DVec3) -> [usize; 3] {
-        let q = (p - self.origin) * self.per_unit;
+    /// `p` in cell units from the grid's corner.
+    fn grid_coords(&self, p: DVec3) -> DVec3 {
+        (p - self.origin) * self.per_unit
+    }
+
+    /// The cell at grid coordinates `q`, clamped to the grid.
+    fn clamped_cell(&self, q: DVec3) -> [usize; 3] {
         let at = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
         [
             at(q.x, self.dims[0]),
@@ -155,11 +159,9 @@ impl SideGrid {
         ]
     }
 
-    /// Whether `p` lies in the grid's box.
-    fn holds(&self, p: DVec3) -> bool {
-        let q = (p - self.origin) * self.per_unit;
-        let dims = DVec3::from(self.dims.map(|n| n as f64));
-        q.cmpge(DVec3::ZERO).all() && q.cmplt(dims).all()
+    /// The cell holding `p`, clamped to the grid.
+    fn cell_of(&self, p: DVec3) -> [usize; 3] {
+        self.clamped_cell(self.grid_coords(p))
     }
 
     /// What the grid knows of `p` (finite). Without strips a point outside
@@ -167,11 +169,14 @@ impl SideGrid {
     /// not near, and nothing separates it from the space around it).
     #[inline]
     pub(crate) fn side(&self, p: Vec3) -> Side {
-        let p = p.as_dvec3();
-        if self.strips && !self.holds(p) {
-            return Side::Near;
+        let q = self.grid_coords(p.as_dvec3());
+        if self.strips {
+            let dims = DVec3::from(self.dims.map(|n| n as f64));
+            if !(q.cmpge(DVec3::ZERO).all() && q.cmplt(dims).all()) {
+                return Side::Near;
+            }
         }
-        let i = self.index(self.cell_of(p));
+        let i = self.index(self.clamped_cell(q));
         let bit = 1u64 << (i % 64);
         if self.near[i / 64] & bit != 0 {
             Side::Near
