@@ -473,3 +473,49 @@ proptest! {
         }
     }
 }
+
+/// The single-point queries build their structures on first use; called
+/// first from many tasks of a parallel loop at once (the way users write
+/// them), they must neither deadlock nor answer differently from the
+/// batch forms, whose structures were built beforehand.
+#[test]
+fn first_single_point_queries_from_a_parallel_loop_finish() {
+    use rayon::prelude::*;
+    let (vertices, triangles) = icosphere(6);
+    let points: Vec<Vec3> = (0..4000)
+        .map(|i| {
+            let a = i as f32 * 0.37;
+            Vec3::new(a.sin(), (1.3 * a).cos(), (0.7 * a).sin()) * (0.2 + (i % 13) as f32 * 0.1)
+        })
+        .collect();
+    let prepared =
+        MeshAccel::build(vertices.clone(), triangles.clone(), AccelKind::DEFAULT).unwrap();
+    prepared.prepare_point_queries();
+    let want: Vec<(bool, f32)> = points
+        .iter()
+        .map(|&p| {
+            (
+                prepared.contains(p),
+                prepared.closest_point(p, f32::INFINITY).unwrap().distance,
+            )
+        })
+        .collect();
+    let (done, finished) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mesh = MeshAccel::build(vertices, triangles, AccelKind::DEFAULT).unwrap();
+        let got: Vec<(bool, f32)> = points
+            .par_iter()
+            .map(|&p| {
+                (
+                    mesh.contains(p),
+                    mesh.closest_point(p, f32::INFINITY).unwrap().distance,
+                )
+            })
+            .collect();
+        done.send(got).unwrap();
+    });
+    let got = finished
+        .recv_timeout(std::time::Duration::from_secs(120))
+        .expect("the first point queries did not finish within 120 s (a deadlock?)");
+    assert_eq!(got, want);
+}
