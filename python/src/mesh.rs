@@ -4,6 +4,7 @@
 //! answers to NumPy without a copy.
 
 use std::path::PathBuf;
+use std::sync::OnceLock;
 
 use arbor_accel::{AccelKind, MeshAccel, Vec3};
 use numpy::ndarray::Array2;
@@ -37,6 +38,9 @@ use crate::rays::{rows3, HitArrays, RayArgs};
 #[pyclass(frozen, module = "arbor", name = "Mesh")]
 pub struct Mesh {
     accel: MeshAccel,
+    /// Every triangle's unit normal, for the hit columns; computed by the
+    /// first query that returns normals (12 bytes per triangle).
+    normals: OnceLock<Vec<[f32; 3]>>,
 }
 
 /// The accelerator named `name`.
@@ -56,7 +60,17 @@ impl Mesh {
         let accel = py
             .detach(|| MeshAccel::build(vertices, triangles, kind))
             .map_err(|e| PyValueError::new_err(format!("faces: {e}")))?;
-        Ok(Mesh { accel })
+        Ok(Mesh {
+            accel,
+            normals: OnceLock::new(),
+        })
+    }
+
+    /// [`crate::rays::unit_normals`] of the mesh, computed on first use
+    /// (called without the GIL).
+    fn normals(&self) -> &[[f32; 3]] {
+        self.normals
+            .get_or_init(|| crate::rays::unit_normals(&self.accel))
     }
 }
 
@@ -149,11 +163,11 @@ impl Mesh {
             Some(out) => {
                 let mut arrays = HitArrays::extract(&out, views.len())?;
                 let slots = arrays.slots();
-                py.detach(|| crate::rays::closest_into(&self.accel, views, slots));
+                py.detach(|| crate::rays::closest_into(&self.accel, self.normals(), views, slots));
                 Ok(out)
             }
             None => {
-                let found = py.detach(|| crate::rays::closest(&self.accel, views));
+                let found = py.detach(|| crate::rays::closest(&self.accel, self.normals(), views));
                 found.into_dict(py)
             }
         }
@@ -202,7 +216,8 @@ impl Mesh {
     ) -> PyResult<Bound<'py, PyDict>> {
         let args = RayArgs::extract(origins, directions, tmin, tmax)?;
         let views = args.views();
-        let (found, ray) = py.detach(|| crate::rays::all(&self.accel, &views.rays()));
+        let (found, ray) =
+            py.detach(|| crate::rays::all(&self.accel, self.normals(), &views.rays()));
         let out = found.into_dict(py)?;
         out.set_item("ray", PyArray1::from_vec(py, ray))?;
         Ok(out)

@@ -184,6 +184,17 @@ pub fn unit_normal(mesh: &MeshAccel, prim: u32) -> [f32; 3] {
         .to_array()
 }
 
+/// [`unit_normal`] of every triangle, in triangle order (in parallel): the
+/// hit columns read a hit's normal here, one load, where computing it took
+/// the triangle's indices, then its three vertices, from wherever the mesh
+/// keeps them.
+pub fn unit_normals(mesh: &MeshAccel) -> Vec<[f32; 3]> {
+    (0..mesh.triangles().len() as u32)
+        .into_par_iter()
+        .map(|prim| unit_normal(mesh, prim))
+        .collect()
+}
+
 /// Hits as the columns Python gets (`t`, `triangle`, `u`, `v`, `point`,
 /// `normal`), in recycled memory (see `column.rs`); made only by
 /// [`closest`] and [`all`], which write every entry.
@@ -237,10 +248,10 @@ impl HitColumns {
 }
 
 /// The closest hit of every ray, as columns.
-pub fn closest(mesh: &MeshAccel, views: RayViews<'_>) -> HitColumns {
+pub fn closest(mesh: &MeshAccel, normals: &[[f32; 3]], views: RayViews<'_>) -> HitColumns {
     let mut c = HitColumns::uninit(views.len());
     // Not filled first: `closest_into` writes every entry.
-    closest_into(mesh, views, c.slots());
+    closest_into(mesh, normals, views, c.slots());
     c
 }
 
@@ -262,9 +273,10 @@ pub struct HitSlots<'a> {
 }
 
 impl HitSlots<'_> {
-    /// Writes entry `i`: `ray`'s hit on `mesh` (the point the ray's at `t`,
-    /// the normal the triangle's), or a miss (inf, -1 and NaN).
-    fn write(&mut self, i: usize, mesh: &MeshAccel, ray: &Ray, hit: Option<&MeshHit>) {
+    /// Writes entry `i`: `ray`'s hit (the point the ray's at `t`, the
+    /// normal its triangle's in `normals`, from [`unit_normals`]), or a miss
+    /// (inf, -1 and NaN).
+    fn write(&mut self, i: usize, normals: &[[f32; 3]], ray: &Ray, hit: Option<&MeshHit>) {
         let (t, triangle, u, v, point, normal) = match hit {
             Some(h) => (
                 h.hit.t,
@@ -272,7 +284,7 @@ impl HitSlots<'_> {
                 h.hit.u,
                 h.hit.v,
                 ray.at(h.hit.t).to_array(),
-                unit_normal(mesh, h.prim),
+                normals[h.prim as usize],
             ),
             None => (
                 f32::INFINITY,
@@ -300,7 +312,12 @@ impl HitSlots<'_> {
 ///
 /// # Panics
 /// If a column's length differs from the number of rays.
-pub fn closest_into(mesh: &MeshAccel, views: RayViews<'_>, slots: HitSlots<'_>) {
+pub fn closest_into(
+    mesh: &MeshAccel,
+    normals: &[[f32; 3]],
+    views: RayViews<'_>,
+    slots: HitSlots<'_>,
+) {
     let n = views.len();
     for len in [
         slots.t.len(),
@@ -338,7 +355,7 @@ pub fn closest_into(mesh: &MeshAccel, views: RayViews<'_>, slots: HitSlots<'_>) 
                     normal,
                 };
                 for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
-                    chunk.write(i, mesh, ray, hit.as_ref());
+                    chunk.write(i, normals, ray, hit.as_ref());
                 }
             },
         );
@@ -436,7 +453,7 @@ impl<'py> HitArrays<'py> {
 }
 
 /// Every hit of every ray, as columns, with the index of each hit's ray.
-pub fn all(mesh: &MeshAccel, rays: &[Ray]) -> (HitColumns, Vec<i64>) {
+pub fn all(mesh: &MeshAccel, normals: &[[f32; 3]], rays: &[Ray]) -> (HitColumns, Vec<i64>) {
     let all = mesh.all_hits_batch(rays);
     let mut c = HitColumns::uninit(all.hits.len());
     let mut slots = c.slots();
@@ -444,7 +461,7 @@ pub fn all(mesh: &MeshAccel, rays: &[Ray]) -> (HitColumns, Vec<i64>) {
     let mut hits = all.hits.iter().enumerate();
     for (i, (ray, &n)) in rays.iter().zip(&all.counts).enumerate() {
         for (k, hit) in hits.by_ref().take(n as usize) {
-            slots.write(k, mesh, ray, Some(hit));
+            slots.write(k, normals, ray, Some(hit));
             ray_of.push(i as i64);
         }
     }
