@@ -57,7 +57,12 @@ pub struct NearestArgs {
 
 /// Runs `arbor inside`: one byte per point, 1 inside, 0 outside.
 pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
-    run(&args.common, "inside", false, true, |mesh, points, _| {
+    let query = Query {
+        name: "inside",
+        closest: false,
+        inside: true,
+    };
+    run(&args.common, query, |mesh, points, _| {
         let inside = mesh.contains_batch(points);
         let found = inside.iter().filter(|&&i| i).count();
         (inside.into_iter().map(u8::from).collect(), found)
@@ -69,55 +74,60 @@ pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
 /// `--signed`), and 4 zero bytes.
 pub fn run_nearest(args: NearestArgs) -> anyhow::Result<()> {
     let signed = args.signed;
-    let name = if signed { "signed_distance" } else { "nearest" };
-    run(
-        &args.common,
-        name,
-        true,
-        signed,
-        move |mesh, points, limits| {
-            let near = mesh.closest_point_batch(points, limits);
-            let inside = if signed {
-                mesh.contains_batch(points)
-            } else {
-                Vec::new()
+    let query = Query {
+        name: if signed { "signed_distance" } else { "nearest" },
+        closest: true,
+        inside: signed,
+    };
+    run(&args.common, query, move |mesh, points, limits| {
+        let near = mesh.closest_point_batch(points, limits);
+        let inside = if signed {
+            mesh.contains_batch(points)
+        } else {
+            Vec::new()
+        };
+        let mut bytes = Vec::with_capacity(points.len() * NEAREST_BYTES);
+        let mut found = 0;
+        for (i, near) in near.iter().enumerate() {
+            let (point, prim, u, v, distance) = match near {
+                Some(c) => {
+                    found += 1;
+                    let sign = if signed && inside[i] { -1.0 } else { 1.0 };
+                    (c.point, c.prim, c.u, c.v, sign * c.distance)
+                }
+                None => (Vec3::ZERO, NONE, 0.0, 0.0, f32::INFINITY),
             };
-            let mut bytes = Vec::with_capacity(points.len() * NEAREST_BYTES);
-            let mut found = 0;
-            for (i, near) in near.iter().enumerate() {
-                let (point, prim, u, v, distance) = match near {
-                    Some(c) => {
-                        found += 1;
-                        let sign = if signed && inside[i] { -1.0 } else { 1.0 };
-                        (c.point, c.prim, c.u, c.v, sign * c.distance)
-                    }
-                    None => (Vec3::ZERO, NONE, 0.0, 0.0, f32::INFINITY),
-                };
-                for x in point.to_array() {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                bytes.extend_from_slice(&prim.to_le_bytes());
-                for x in [u, v, distance] {
-                    bytes.extend_from_slice(&x.to_le_bytes());
-                }
-                bytes.extend_from_slice(&[0; 4]);
+            for x in point.to_array() {
+                bytes.extend_from_slice(&x.to_le_bytes());
             }
-            (bytes, found)
-        },
-    )
+            bytes.extend_from_slice(&prim.to_le_bytes());
+            for x in [u, v, distance] {
+                bytes.extend_from_slice(&x.to_le_bytes());
+            }
+            bytes.extend_from_slice(&[0; 4]);
+        }
+        (bytes, found)
+    })
 }
 
-/// Loads, builds, reads the points, answers `query` for them `repeat`
-/// times and writes the answers and a one-line JSON summary. `query`
-/// returns the answer bytes and how many points it found something for;
-/// `uses_closest` and `uses_inside` say whether it answers closest points
-/// and inside/outside (then an open mesh is warned about).
+/// A point query as [`run`] needs to know it.
+struct Query {
+    /// Its name in the JSON summary.
+    name: &'static str,
+    /// Whether it answers closest points (their tree is built first).
+    closest: bool,
+    /// Whether it answers inside/outside (the side grid is built first, and
+    /// an open mesh is warned about).
+    inside: bool,
+}
+
+/// Loads, builds, reads the points, answers them `repeat` times with
+/// `answer` and writes the answers and a one-line JSON summary. `answer`
+/// returns the answer bytes and how many points it found something for.
 fn run(
     args: &PointArgs,
-    name: &str,
-    uses_closest: bool,
-    uses_inside: bool,
-    query: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
+    query: Query,
+    answer: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
 ) -> anyhow::Result<()> {
     let (kind, pool) = args.run.start()?;
     let repeat = args.run.repeat as usize;
@@ -128,10 +138,10 @@ fn run(
         let (mesh, ms) = batch::load_and_build(&args.mesh, kind, repeat)?;
         let start = std::time::Instant::now();
         // Part of the build: the structures this query uses.
-        if uses_closest {
+        if query.closest {
             mesh.prepare_closest_points();
         }
-        if uses_inside {
+        if query.inside {
             mesh.prepare_inside();
         }
         anyhow::Ok((mesh, ms + batch::ms_since(start)))
@@ -144,22 +154,22 @@ fn run(
         .into());
     }
     let (points, limits) = read_points(&args.points)?;
-    if uses_inside {
+    if query.inside {
         warn_if_open(&args.mesh, &mesh);
     }
-    let mut answer = (Vec::new(), 0);
+    let mut answers = (Vec::new(), 0);
     let (median, min) = batch::timed(repeat, || {
-        answer = pool.install(|| query(&mesh, &points, &limits));
+        answers = pool.install(|| answer(&mesh, &points, &limits));
     });
     if let Some(path) = &args.out {
-        crate::output::write_atomic(path, |w| w.write_all(&answer.0))?;
+        crate::output::write_atomic(path, |w| w.write_all(&answers.0))?;
     }
     let summary = json!({
         "tracer": "arbor",
-        "query": name,
+        "query": query.name,
         "triangles": mesh.triangles().len(),
         "points": points.len(),
-        "found": answer.1,
+        "found": answers.1,
         "threads": pool.current_num_threads(),
         "accel": kind.name(),
         "build_ms": batch::millis(build_ms),
