@@ -519,3 +519,65 @@ fn first_single_point_queries_from_a_parallel_loop_finish() {
         .expect("the first point queries did not finish within 120 s (a deadlock?)");
     assert_eq!(got, want);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The fast winding number (far subtrees by their moments) stays within
+    /// 1e-2 of the exact sum of solid angles, on random soups and at random
+    /// points, and the batch form answers the same.
+    #[test]
+    fn winding_numbers_are_near_the_exact_sum(
+        (v, t) in mesh(),
+        points in prop::collection::vec(point(), 1..48),
+    ) {
+        let mesh = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
+        let batch = mesh.winding_number_batch(&points);
+        for (&p, &b) in points.iter().zip(&batch) {
+            let fast = mesh.winding_number(p);
+            let exact = mesh.winding_number_exact(p);
+            prop_assert!((f64::from(fast) - exact).abs() <= 1e-2, "{}: {} vs {}", p, fast, exact);
+            prop_assert_eq!(fast.to_bits(), b.to_bits());
+        }
+    }
+
+    /// On closed, outward-facing meshes (bumpy icospheres, far from the
+    /// origin and small too) the winding number is 1 where the ray's parity
+    /// says inside and 0 outside, away from the surface.
+    #[test]
+    fn winding_numbers_agree_with_inside_on_closed_meshes(
+        bumps in prop::collection::vec(0.7f32..1.3, 162),
+        offset in prop_oneof![Just(Vec3::ZERO), Just(Vec3::new(1000.0, -2000.0, 500.0))],
+        scale in prop_oneof![Just(1.0f32), Just(1e-3)],
+        points in prop::collection::vec(point(), 1..64),
+    ) {
+        let (v, t) = icosphere(2);
+        let v: Vec<Vec3> = v.iter().zip(bumps.iter().cycle()).map(|(&p, &r)| p * r * scale + offset).collect();
+        let mesh = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
+        for p in points.iter().map(|&p| p * 0.4 * scale + offset) {
+            let near = mesh.closest_point(p, f32::INFINITY).unwrap().distance;
+            if near < 1e-3 * scale {
+                continue;
+            }
+            let want = if mesh.contains(p) { 1.0 } else { 0.0 };
+            let w = mesh.winding_number(p);
+            prop_assert!((w - want).abs() < 1e-2, "{}: {} (inside {})", p, w, want);
+        }
+    }
+}
+/// The fast winding number's accuracy on a sphere, inside and out (the
+/// figures in `mesh/winding.rs`): within 1e-2 of the exact sum everywhere.
+#[test]
+fn winding_numbers_on_a_sphere_are_within_a_hundredth() {
+    let (v, t) = icosphere(3);
+    let mesh = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
+    let mut worst: f64 = 0.0;
+    for i in 0..2000 {
+        let a = i as f32 * 0.618;
+        let r = 1.26 * (i % 97) as f32 / 97.0;
+        let p = Vec3::new(a.sin(), (1.7 * a).cos(), (2.3 * a).sin()) * r;
+        let e = (f64::from(mesh.winding_number(p)) - mesh.winding_number_exact(p)).abs();
+        worst = worst.max(e);
+    }
+    assert!(worst < 1e-2, "largest error {worst}");
+}

@@ -42,6 +42,11 @@ pub struct PointArgs {
 pub struct InsideArgs {
     #[command(flatten)]
     pub common: PointArgs,
+    /// Inside where the generalised winding number is at least 0.5, instead
+    /// of one ray's parity: degrades gracefully on meshes with holes and
+    /// on soups (docs/queries.md).
+    #[arg(long)]
+    pub winding: bool,
 }
 
 /// Arguments of `arbor nearest`.
@@ -57,10 +62,28 @@ pub struct NearestArgs {
 
 /// Runs `arbor inside`: one byte per point, 1 inside, 0 outside.
 pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
+    if args.winding {
+        let query = Query {
+            name: "inside_winding",
+            closest: false,
+            inside: false,
+            winding: true,
+        };
+        return run(&args.common, query, |mesh, points, _| {
+            let inside: Vec<u8> = mesh
+                .winding_number_batch(points)
+                .into_iter()
+                .map(|w| u8::from(w >= 0.5))
+                .collect();
+            let found = inside.iter().filter(|&&i| i == 1).count();
+            (inside, found)
+        });
+    }
     let query = Query {
         name: "inside",
         closest: false,
         inside: true,
+        winding: false,
     };
     run(&args.common, query, |mesh, points, _| {
         let inside = mesh.contains_batch(points);
@@ -78,6 +101,7 @@ pub fn run_nearest(args: NearestArgs) -> anyhow::Result<()> {
         name: if signed { "signed_distance" } else { "nearest" },
         closest: true,
         inside: signed,
+        winding: false,
     };
     run(&args.common, query, move |mesh, points, limits| {
         let near = mesh.closest_point_batch(points, limits);
@@ -116,9 +140,11 @@ struct Query {
     name: &'static str,
     /// Whether it answers closest points (their tree is built first).
     closest: bool,
-    /// Whether it answers inside/outside (the side grid is built first, and
-    /// an open mesh is warned about).
+    /// Whether it answers inside/outside by ray parity (the side grid is
+    /// built first, and an open mesh is warned about).
     inside: bool,
+    /// Whether it answers winding numbers (their moments are built first).
+    winding: bool,
 }
 
 /// Loads, builds, reads the points, answers them `repeat` times with
@@ -143,6 +169,9 @@ fn run(
         }
         if query.inside {
             mesh.prepare_inside();
+        }
+        if query.winding {
+            mesh.prepare_winding_numbers();
         }
         anyhow::Ok((mesh, ms + batch::ms_since(start)))
     })?;

@@ -240,6 +240,36 @@ fn open_meshes_are_warned_about() {
     );
 }
 
+/// `inside --winding` answers by the winding number: as the ray's parity
+/// on the closed cube; with one face missing, the centre and a point 0.1
+/// from the hole still inside (winding numbers about 0.9 and 0.6), and no
+/// open-mesh warning.
+#[test]
+fn inside_by_winding_numbers() {
+    let inf = f32::INFINITY;
+    let points = [
+        point([0.5, 0.5, 0.5], inf),
+        point([0.9, 0.2, 0.7], inf),
+        point([2.0, 0.5, 0.5], inf),
+        point([-1.0, -1.0, -1.0], inf),
+    ]
+    .concat();
+    let f = Fixture::new(CUBE_OBJ);
+    let pts = f.file("cube.points", &points);
+    let out = f.out("w.bin");
+    let (stdout, _) = f.ok(&points_args("inside", &f.mesh, &pts, &out, &["--winding"]));
+    assert_eq!(std::fs::read(&out).unwrap(), [1, 1, 0, 0]);
+    assert_eq!(summary(&stdout)["query"], "inside_winding");
+
+    let open = CUBE_OBJ.replace("f 2 4 8 6\n", "");
+    let f = Fixture::new(&open);
+    let pts = f.file("cube.points", &points);
+    let out = f.out("w.bin");
+    let (_, stderr) = f.ok(&points_args("inside", &f.mesh, &pts, &out, &["--winding"]));
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert_eq!(std::fs::read(&out).unwrap(), [1, 1, 0, 0]);
+}
+
 #[test]
 fn bad_point_files_and_meshes_exit_2_without_output() {
     let f = Fixture::new(CUBE_OBJ);

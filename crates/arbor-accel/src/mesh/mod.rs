@@ -15,6 +15,7 @@ mod crossings;
 mod edges;
 mod inside;
 mod side_grid;
+mod winding;
 
 use std::sync::OnceLock;
 
@@ -109,6 +110,8 @@ pub struct MeshAccel {
     /// The inside test's lookup grid, built on first use (`None` where it
     /// would not pay).
     sides: OnceLock<Option<side_grid::SideGrid>>,
+    /// The winding numbers' moments over `points`' nodes, built on first use.
+    winding: OnceLock<winding::WindingTree>,
 }
 
 /// What answers the ray queries.
@@ -181,6 +184,7 @@ impl MeshAccel {
             points: OnceLock::new(),
             open_edges: OnceLock::new(),
             sides: OnceLock::new(),
+            winding: OnceLock::new(),
         })
     }
 
@@ -395,6 +399,19 @@ impl MeshAccel {
                 })
             })
             .as_ref()
+    }
+
+    /// Builds the winding numbers' moments (and the closest-point tree they
+    /// sum over) now; otherwise built by the first winding-number query.
+    pub fn prepare_winding_numbers(&self) {
+        self.winding_tree();
+    }
+
+    /// The moments of [`MeshAccel::winding_number`], built on first use.
+    fn winding_tree(&self) -> &winding::WindingTree {
+        let bvh = self.point_bvh();
+        self.winding
+            .get_or_init(|| winding::WindingTree::build(bvh, |p| self.triangle(p)))
     }
 
     /// The binary BVH of the point queries (built on first use).
