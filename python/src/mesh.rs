@@ -264,6 +264,23 @@ impl Mesh {
         Ok(PyArray1::from_vec(py, inside))
     }
 
+    /// The generalised winding number of the mesh at each point: a
+    /// ``(k,)`` float32 array, about 1 inside a closed mesh whose triangles
+    /// face outwards, 0 outside, and in between near holes, so that
+    /// ``winding_number(p) >= 0.5`` is an inside test for meshes with holes
+    /// and soups. Far triangles are summed by their moments: within about
+    /// 1e-2 of the exact sum of solid angles.
+    fn winding_number<'py>(
+        &self,
+        py: Python<'py>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        let points = Points::extract(points)?;
+        let points = points.slice();
+        let w = py.detach(|| self.accel.winding_number_batch(&points));
+        Ok(PyArray1::from_vec(py, w))
+    }
+
     /// The point of the mesh closest to each point, within ``max_distance``
     /// (a number or a ``(k,)`` array; default inf).
     ///

@@ -85,6 +85,41 @@ def test_contains_matches_an_analytic_box_and_sphere():
     np.testing.assert_array_equal(got[clear], radius[clear] < 1)
 
 
+def exact_winding(vertices, faces, points):
+    """The sum of every triangle's signed solid angle over 4 pi (Van
+    Oosterom and Strackee), in float64."""
+    t = vertices[faces].astype(np.float64)
+    w = np.zeros(len(points))
+    for i, p in enumerate(points.astype(np.float64)):
+        a, b, c = t[:, 0] - p, t[:, 1] - p, t[:, 2] - p
+        la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+        det = np.einsum("ij,ij->i", a, np.cross(b, c))
+        dot = lambda x, y: np.einsum("ij,ij->i", x, y)
+        den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la
+        w[i] = (2 * np.arctan2(det, den)).sum() / (4 * np.pi)
+    return w
+
+
+def test_winding_numbers_match_the_exact_sum_and_contains():
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    rng = np.random.default_rng(5)
+    points = (rng.random((300, 3)) * 3 - 1.5).astype(np.float32)
+    mesh = arbor.Mesh(sphere.vertices, sphere.faces)
+    w = mesh.winding_number(points)
+    assert w.dtype == np.float32 and w.shape == (300,)
+    np.testing.assert_allclose(w, exact_winding(sphere.vertices, sphere.faces, points), atol=1e-2)
+    radius = np.linalg.norm(points, axis=1)
+    clear = (radius < 0.98) | (radius > 1.001)
+    np.testing.assert_array_equal((w >= 0.5)[clear], mesh.contains(points)[clear])
+    # With a hole (a third of the sphere gone), the centre still winds
+    # most of the way round.
+    kept = sphere.faces[sphere.triangles_center[:, 2] < 0.5]
+    centre = np.zeros((1, 3), dtype=np.float32)
+    exact = exact_winding(sphere.vertices, kept, centre)[0]
+    assert 0.6 < exact < 0.9
+    assert abs(arbor.Mesh(sphere.vertices, kept).winding_number(centre)[0] - exact) < 1e-2
+
+
 def test_closest_points_match_brute_force(rng):
     vertices, faces = random_soup(rng, 50)
     points = (rng.random((200, 3)) * 2 - 0.5).astype(np.float32)
