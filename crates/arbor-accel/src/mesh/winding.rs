@@ -30,7 +30,6 @@ use crate::{morton, Bvh, Vec3};
 
 /// A subtree is summed by its moments when the point lies farther than
 /// `BETA` times the radius of its triangles from their centre.
-
 const BETA: f64 = 4.0;
 
 const FOUR_PI: f64 = 4.0 * std::f64::consts::PI;
