@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::arrays::Vec3Array;
-use crate::points::{closest_columns, max_distances, Points};
+use crate::points::{closest_columns, max_distances, per_point, Points};
 use crate::rays::{rows3, HitArrays, RayArgs};
 
 /// A triangle mesh prepared for ray and point queries.
@@ -258,10 +258,7 @@ impl Mesh {
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
-        let points = Points::extract(points)?;
-        let points = points.slice();
-        let inside = py.detach(|| self.accel.contains_batch(&points));
-        Ok(PyArray1::from_vec(py, inside))
+        per_point(py, points, |points| self.accel.contains_batch(points))
     }
 
     /// The generalised winding number of the mesh at each point: a
@@ -275,10 +272,7 @@ impl Mesh {
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let points = Points::extract(points)?;
-        let points = points.slice();
-        let w = py.detach(|| self.accel.winding_number_batch(&points));
-        Ok(PyArray1::from_vec(py, w))
+        per_point(py, points, |points| self.accel.winding_number_batch(points))
     }
 
     /// The point of the mesh closest to each point, within ``max_distance``
@@ -312,10 +306,9 @@ impl Mesh {
         py: Python<'py>,
         points: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let points = Points::extract(points)?;
-        let points = points.slice();
-        let distances = py.detach(|| self.accel.signed_distance_batch(&points));
-        Ok(PyArray1::from_vec(py, distances))
+        per_point(py, points, |points| {
+            self.accel.signed_distance_batch(points)
+        })
     }
 
     /// How many edges are not shared by exactly two triangles running along

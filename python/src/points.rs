@@ -46,6 +46,19 @@ impl<'py> Points<'py> {
     }
 }
 
+/// One answer per point of `obj` as a `(k,)` array: `answer` runs on the
+/// points without the GIL (the library's parallel batch form).
+pub fn per_point<'py, T: numpy::Element + Send>(
+    py: Python<'py>,
+    obj: &Bound<'py, PyAny>,
+    answer: impl FnOnce(&[Vec3]) -> Vec<T> + Send,
+) -> PyResult<Bound<'py, PyArray1<T>>> {
+    let points = Points::extract(obj)?;
+    let points = points.slice();
+    let answers = py.detach(|| answer(&points));
+    Ok(PyArray1::from_vec(py, answers))
+}
+
 /// The per-point maximum distances (default: none).
 pub fn max_distances(obj: Option<&Bound<'_, PyAny>>, k: usize) -> PyResult<Vec<f32>> {
     let limits = match obj {
