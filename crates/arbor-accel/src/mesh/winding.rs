@@ -42,8 +42,9 @@ const STACK: usize = 128;
 struct Moments {
     /// Area-weighted centre of the subtree's triangles.
     center: DVec3,
-    /// Distance from `center` beyond which every triangle lies within.
-    radius: f64,
+    /// `(BETA r)^2`, `r` the distance from `center` within which every
+    /// triangle lies: points farther (squared) take the far field.
+    reach2: f64,
     /// Sum of the triangles' area vectors, `(b - a) x (c - a) / 2`.
     normal: DVec3,
     /// Sum of the triangles' areas (for combining centres).
@@ -64,7 +65,7 @@ impl WindingTree {
         let prims = bvh.prim_indices();
         let empty = Moments {
             center: DVec3::ZERO,
-            radius: 0.0,
+            reach2: 0.0,
             normal: DVec3::ZERO,
             area: 0.0,
         };
@@ -93,7 +94,7 @@ impl WindingTree {
                 };
                 Moments {
                     center,
-                    radius: 0.0,
+                    reach2: 0.0,
                     normal: tris.iter().map(|&t| area_of(t)).sum(),
                     area,
                 }
@@ -107,7 +108,7 @@ impl WindingTree {
                 };
                 Moments {
                     center,
-                    radius: 0.0,
+                    reach2: 0.0,
                     normal: l.normal + r.normal,
                     area,
                 }
@@ -116,7 +117,7 @@ impl WindingTree {
             // of its farthest corner (rounded up by a relative 1e-12).
             let far = (m.center - lo).abs().max((hi - m.center).abs());
             moments[i] = Moments {
-                radius: far.length() * (1.0 + 1e-12),
+                reach2: (BETA * far.length()).powi(2),
                 ..m
             };
         }
@@ -177,7 +178,7 @@ impl MeshAccel {
             if m.area == 0.0 {
                 continue;
             }
-            if (m.center - p).length() > BETA * m.radius {
+            if (m.center - p).length_squared() > m.reach2 {
                 w += far_field(p, m);
                 continue;
             }
