@@ -13,15 +13,17 @@
 //! Near the point every triangle's solid angle is summed exactly (the
 //! formula of Van Oosterom and Strackee, in `f64`). A subtree whose
 //! triangles all lie within radius `r` of their area-weighted centre `c`
-//! (the distance to its box's farthest corner), with `|c - p| > BETA r`, is
-//! summed at once as one dipole: the sum `N` of its triangles' area vectors
-//! at `c`, `N . (c - p) / (4 pi |c - p|^3)`. Its relative error falls as
-//! `(r / |c - p|)^2`. Measured on a 1,280-triangle sphere at 2,000 points
-//! inside and out (`tests/mesh_queries.rs`), largest error from the exact
-//! sum: `BETA` 2, 3, 4, 5 gave 3.0e-2, 1.1e-2, 6.8e-3, 4.9e-3; with
-//! Barill et al.'s second-order term added it was worse (6.3e-2, 2.7e-2,
-//! 1.5e-2 for 2, 3, 4), so the expansion stops at the dipole, with
-//! `BETA = 4`.
+//! (a leaf's largest vertex distance, bounded through the children above,
+//! or the distance to the box's farthest corner where that is less), with
+//! `|c - p| > BETA r`, is summed at once as one dipole: the sum `N` of its
+//! triangles' area vectors at `c`, `N . (c - p) / (4 pi |c - p|^3)`. Its
+//! relative error falls as `(r / |c - p|)^2`. Measured on a 1,280-triangle
+//! sphere at 2,000 points inside and out (`tests/mesh_queries.rs`), largest
+//! error from the exact sum: `BETA` 3, 4, 5, 6 gave 1.1e-2, 7.1e-3, 5.0e-3,
+//! 3.9e-3; with Barill et al.'s second-order term added (and the box-corner
+//! radius) it was worse (6.3e-2, 2.7e-2, 1.5e-2 for `BETA` 2, 3, 4, against
+//! 3.0e-2, 1.1e-2, 6.8e-3 without), so the expansion stops at the dipole,
+//! with `BETA = 4`.
 
 use glam::DVec3;
 
@@ -70,6 +72,8 @@ impl WindingTree {
             area: 0.0,
         };
         let mut moments = vec![empty; nodes.len()];
+        // Distance from each node's centre within which its triangles lie.
+        let mut radius = vec![0.0f64; nodes.len()];
         for i in (0..nodes.len()).rev() {
             let node = &nodes[i];
             let lo = node.min.as_dvec3();
@@ -92,6 +96,11 @@ impl WindingTree {
                 } else {
                     0.5 * (lo + hi)
                 };
+                radius[i] = tris
+                    .iter()
+                    .flatten()
+                    .map(|&v| (v - center).length())
+                    .fold(0.0, f64::max);
                 Moments {
                     center,
                     reach2: 0.0,
@@ -106,6 +115,9 @@ impl WindingTree {
                 } else {
                     0.5 * (lo + hi)
                 };
+                let (rl, rr) = (radius[i + 1], radius[node.offset as usize]);
+                radius[i] =
+                    (rl + (l.center - center).length()).max(rr + (r.center - center).length());
                 Moments {
                     center,
                     reach2: 0.0,
@@ -113,11 +125,12 @@ impl WindingTree {
                     area,
                 }
             };
-            // Every triangle lies in the node's box, so within the distance
-            // of its farthest corner (rounded up by a relative 1e-12).
-            let far = (m.center - lo).abs().max((hi - m.center).abs());
+            // Every triangle also lies in the node's box, so within the
+            // distance of its farthest corner.
+            let corner = (m.center - lo).abs().max((hi - m.center).abs()).length();
+            radius[i] = radius[i].min(corner);
             moments[i] = Moments {
-                reach2: (BETA * far.length()).powi(2),
+                reach2: (BETA * radius[i]).powi(2),
                 ..m
             };
         }
