@@ -62,33 +62,23 @@ pub struct NearestArgs {
 
 /// Runs `arbor inside`: one byte per point, 1 inside, 0 outside.
 pub fn run_inside(args: InsideArgs) -> anyhow::Result<()> {
-    if args.winding {
-        let query = Query {
-            name: "inside_winding",
-            closest: false,
-            inside: false,
-            winding: true,
-        };
-        return run(&args.common, query, |mesh, points, _| {
-            let inside: Vec<u8> = mesh
-                .winding_number_batch(points)
-                .into_iter()
-                .map(|w| u8::from(w >= 0.5))
-                .collect();
-            let found = inside.iter().filter(|&&i| i == 1).count();
-            (inside, found)
-        });
-    }
+    let winding = args.winding;
     let query = Query {
-        name: "inside",
+        name: if winding { "inside_winding" } else { "inside" },
         closest: false,
-        inside: true,
-        winding: false,
+        inside: !winding,
+        winding,
     };
-    run(&args.common, query, |mesh, points, _| {
-        let inside = mesh.contains_batch(points);
-        let found = inside.iter().filter(|&&i| i).count();
-        (inside.into_iter().map(u8::from).collect(), found)
+    run(&args.common, query, move |mesh, points, _| {
+        let inside: Vec<u8> = if winding {
+            let w = mesh.winding_number_batch(points);
+            w.into_iter().map(|w| u8::from(w >= 0.5)).collect()
+        } else {
+            let inside = mesh.contains_batch(points);
+            inside.into_iter().map(u8::from).collect()
+        };
+        let found = inside.iter().filter(|&&i| i == 1).count();
+        (inside, found)
     })
 }
 

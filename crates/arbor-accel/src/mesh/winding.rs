@@ -85,14 +85,18 @@ impl WindingTree {
                     .map(|&p| triangle(p).map(|v| v.as_dvec3()))
                     .filter(|t| t.iter().all(|v| v.is_finite()))
                     .collect();
-                let area_of = |[a, b, c]: [DVec3; 3]| 0.5 * (b - a).cross(c - a);
-                let centroid = |[a, b, c]: [DVec3; 3]| (a + b + c) / 3.0;
-                let area: f64 = tris.iter().map(|&t| area_of(t).length()).sum();
+                // Per triangle its area vector and, weighted by its area,
+                // its centroid.
+                let (mut normal, mut area, mut weighted) = (DVec3::ZERO, 0.0, DVec3::ZERO);
+                for &[a, b, c] in &tris {
+                    let vector = 0.5 * (b - a).cross(c - a);
+                    let size = vector.length();
+                    normal += vector;
+                    area += size;
+                    weighted += (a + b + c) / 3.0 * size;
+                }
                 let center = if area > 0.0 {
-                    tris.iter()
-                        .map(|&t| centroid(t) * area_of(t).length())
-                        .sum::<DVec3>()
-                        / area
+                    weighted / area
                 } else {
                     0.5 * (lo + hi)
                 };
@@ -104,7 +108,7 @@ impl WindingTree {
                 Moments {
                     center,
                     reach2: 0.0,
-                    normal: tris.iter().map(|&t| area_of(t)).sum(),
+                    normal,
                     area,
                 }
             } else {
@@ -154,11 +158,10 @@ fn triangle_winding(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
     }
 }
 
-/// The far field of a subtree with moments `m` at `p`: its triangles as
-/// one dipole at their centre.
-fn far_field(p: DVec3, m: &Moments) -> f64 {
-    let d = m.center - p;
-    let r2 = d.length_squared();
+/// The far field of a subtree with moments `m` at the point `d` away from
+/// its centre (`d = center - p`, `r2 = |d|^2`): its triangles as one dipole
+/// at their centre.
+fn far_field(d: DVec3, r2: f64, m: &Moments) -> f64 {
     m.normal.dot(d) / (r2 * r2.sqrt() * FOUR_PI)
 }
 
@@ -191,8 +194,10 @@ impl MeshAccel {
             if m.area == 0.0 {
                 continue;
             }
-            if (m.center - p).length_squared() > m.reach2 {
-                w += far_field(p, m);
+            let d = m.center - p;
+            let r2 = d.length_squared();
+            if r2 > m.reach2 {
+                w += far_field(d, r2, m);
                 continue;
             }
             let node = &nodes[index];
