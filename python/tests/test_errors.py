@@ -83,7 +83,7 @@ def test_bad_rays_of_the_crossing_queries(query):
         getattr(mesh, query)(O, D, tmax=[1.0, 2.0, 3.0])
 
 
-@pytest.mark.parametrize("query", ["contains", "closest_points", "signed_distance"])
+@pytest.mark.parametrize("query", ["contains", "winding_number", "closest_points", "signed_distance"])
 def test_bad_points_are_value_errors(query):
     mesh = arbor.Mesh(V, F)
     with pytest.raises(ValueError, match=r"points: expected an array of shape \(k, 3\), got shape \(2, 2\)"):

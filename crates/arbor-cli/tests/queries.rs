@@ -291,6 +291,19 @@ fn bad_point_files_and_meshes_exit_2_without_output() {
         &out,
         "nan.points: point 1 (bytes 16..32) has a coordinate that is not a finite number",
     );
+    for (file, message) in [
+        (&odd, "odd.points: a point file holds 16-byte records"),
+        (
+            &nan,
+            "nan.points: point 1 (bytes 16..32) has a coordinate that is not a finite number",
+        ),
+    ] {
+        f.fails(
+            &points_args("inside", &f.mesh, file, &out, &["--winding"]),
+            &out,
+            message,
+        );
+    }
     let negative = f.file("neg.points", &point([0.0; 3], -1.0));
     f.fails(
         &points_args("nearest", &f.mesh, &negative, &out, &[]),
