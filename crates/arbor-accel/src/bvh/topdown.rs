@@ -384,7 +384,7 @@ impl Splitter for Binned {
 /// Exact SAH for two or three references: every split separates one
 /// reference from the rest, so all candidates are enumerated directly,
 /// cheaper than clearing bins and better than binning.
-fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
+pub(super) fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
     let n = refs.len();
     let tests = |n: usize| leaf_tests(n as u32, params);
     let mut best = (f32::INFINITY, 0);
@@ -400,8 +400,6 @@ fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
             best = (cost, i);
         }
     }
-    let (ct, ci) = (params.traversal_cost, params.intersection_cost);
-    let area = b.surface_area();
     let (cost, i) = best;
     if !cost.is_finite() {
         return if n <= params.max_leaf_size {
@@ -410,7 +408,7 @@ fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
             median_split(refs, b.largest_axis())
         };
     }
-    if n <= params.max_leaf_size && ci * tests(n) * area <= ct * area + ci * cost {
+    if leaf_is_cheaper(n, b, cost, params) {
         return Split::Leaf;
     }
     refs.swap(0, i);
@@ -434,6 +432,76 @@ fn leaf_tests(n: u32, params: &BvhParams) -> f32 {
 
 fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhParams) -> Split {
     let n = refs.len();
+    // Large nodes bin every 4th reference only: the SAH over a sample of
+    // thousands picks practically the same plane, and binning is the
+    // costliest pass.
+    let stride = if n >= SAMPLE_FROM { 4 } else { 1 };
+    let Some(plan) = object_plan::<B>(refs, cb, params, stride) else {
+        return if n <= params.max_leaf_size {
+            Split::Leaf
+        } else {
+            median_split(refs, cb.largest_axis())
+        };
+    };
+    // Sampled nodes are far above any leaf size, so only full bins are
+    // weighed against a leaf.
+    if stride == 1 && leaf_is_cheaper(n, b, plan.cost, params) {
+        return Split::Leaf;
+    }
+    // A sampled reference on each side guarantees both sides are non-empty.
+    let (k, [lb, lc, rb, rc]) = partition_bounds(refs, |c| plan.goes_left(c));
+    Split::At(k, Some([(lb.aabb(), lc.aabb()), (rb.aabb(), rc.aabb())]))
+}
+
+/// Whether a leaf of `n` references in box `b` costs no more than a split
+/// of (unnormalised) SAH cost `split_cost`; only nodes of at most
+/// `params.max_leaf_size` references may become leaves.
+pub(super) fn leaf_is_cheaper(n: usize, b: &Aabb, split_cost: f32, params: &BvhParams) -> bool {
+    let (ct, ci) = (params.traversal_cost, params.intersection_cost);
+    let area = b.surface_area();
+    n <= params.max_leaf_size
+        && ci * leaf_tests(n as u32, params) * area <= ct * area + ci * split_cost
+}
+
+/// The best centroid-binned object split of a node: where it cuts and
+/// what it costs.
+pub(super) struct ObjectPlan {
+    /// SAH cost multiplied through by the node's area:
+    /// `A(left) tests(left) + A(right) tests(right)`.
+    pub cost: f32,
+    /// Boxes of the two sides (of the binned references).
+    pub left: Aabb,
+    pub right: Aabb,
+    axis: usize,
+    /// The first bin of the right side.
+    split: f32,
+    origin: Vec4,
+    scale: Vec4,
+    last_bin: f32,
+}
+
+impl ObjectPlan {
+    /// Whether a reference with centroid `c` belongs to the left side
+    /// (the same arithmetic as the binning, so the sides are as planned).
+    #[inline(always)]
+    pub fn goes_left(&self, c: Vec4) -> bool {
+        let bins = ((c - self.origin) * self.scale)
+            .max(Vec4::ZERO)
+            .min(Vec4::splat(self.last_bin));
+        bins[self.axis] < self.split
+    }
+}
+
+/// Bins every `stride`-th reference's centroid into `B` bins per axis and
+/// sweeps the planes between bins for the cheapest SAH split; `None` when
+/// no plane separates anything (all centroids in one bin on every axis).
+pub(super) fn object_plan<const B: usize>(
+    refs: &[Ref],
+    cb: &Aabb,
+    params: &BvhParams,
+    stride: usize,
+) -> Option<ObjectPlan> {
+    let n = refs.len();
     let ext = cb.max - cb.min;
     let scale = Vec3::select(
         ext.cmpgt(Vec3::ZERO),
@@ -444,13 +512,10 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
         origin: cb.min.extend(0.0),
         scale: scale.extend(0.0),
     };
-    // Large nodes bin every 4th reference only: the SAH over a sample of
-    // thousands picks practically the same plane, and binning is the
-    // costliest pass. The sample is fixed by index (chunks start at
-    // multiples of 4), so it does not depend on the thread count.
-    let stride = if n >= SAMPLE_FROM { 4 } else { 1 };
-    // Bins are filled in place: passed and returned by value, they were
-    // copied (a kilobyte or two) twice per node.
+    // The sample is fixed by index (chunks start at multiples of 4), so it
+    // does not depend on the thread count. Bins are filled in place: passed
+    // and returned by value, they were copied (a kilobyte or two) twice per
+    // node.
     let fill = |acc: &mut Bins<B>, chunk: &[Ref]| {
         for r in chunk.iter().step_by(stride) {
             let k = binner.indices(r.centroid4());
@@ -473,7 +538,6 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
     } else {
         fill(&mut acc, refs);
     }
-    let (ct, ci) = (params.traversal_cost, params.intersection_cost);
     let tests = |n: u32| leaf_tests(n, params);
     // Costs are compared unnormalised: multiplied through by A(node). The
     // three axes are swept side by side so their dependency chains overlap.
@@ -505,31 +569,23 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
             }
         }
     }
-    let Some((cost, a, i)) = best else {
-        return if n <= params.max_leaf_size {
-            Split::Leaf
-        } else {
-            median_split(refs, cb.largest_axis())
-        };
-    };
-    // Sampled nodes are far above any leaf size, so only full bins are
-    // weighed against a leaf.
-    let area = b.surface_area();
-    if stride == 1
-        && n <= params.max_leaf_size
-        && ci * tests(n as u32) * area <= ct * area + ci * cost
-    {
-        return Split::Leaf;
-    }
-    // A sampled reference on each side guarantees both sides are non-empty.
-    let split = i as f32;
-    let (k, [lb, lc, rb, rc]) = partition_bounds(refs, |c| binner.bins(c)[a] < split);
-    Split::At(k, Some([(lb.aabb(), lc.aabb()), (rb.aabb(), rc.aabb())]))
+    let (cost, axis, i) = best?;
+    let side = |bins: &[B4]| bins.iter().fold(B4::EMPTY, |acc, b| acc.union(b)).aabb();
+    Some(ObjectPlan {
+        cost,
+        left: side(&acc.b[axis][..i]),
+        right: side(&acc.b[axis][i..]),
+        axis,
+        split: i as f32,
+        origin: binner.origin,
+        scale: binner.scale,
+        last_bin: (B - 1) as f32,
+    })
 }
 
 /// [`partition`] by centroid, also returning both sides' boxes and
 /// centroid boxes: `[left box, left centroids, right box, right centroids]`.
-fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, [B4; 4]) {
+pub(super) fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, [B4; 4]) {
     let mut acc = [B4::EMPTY; 4];
     let add = |acc: &mut [B4; 4], side: usize, r: &Ref, c: Vec4| {
         acc[2 * side] = acc[2 * side].grow(r.min, r.max);
