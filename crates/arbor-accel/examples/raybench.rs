@@ -3,7 +3,7 @@
 //! structures and their build parameters without building the whole CLI.
 //!
 //! ```text
-//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B] [--bins N] [--packets]
+//! cargo run --release -p arbor-accel --example raybench -- MESH.{msh,obj} RAYS KIND[,KIND..] [--occluded] [--threads N] [--repeat K] [--leaf N] [--ct-percent P] [--block B] [--bins N] [--spatial-percent S] [--packets]
 //! ```
 //!
 //! `KIND` is an accelerator name (`triangles` is accepted for `bvh-wide`).
@@ -97,6 +97,8 @@ fn main() {
         bvh.bins = opt("--bins", bvh.bins);
         bvh.traversal_cost =
             opt("--ct-percent", (bvh.traversal_cost * 100.0) as usize) as f32 / 100.0;
+        // Spatial splits' extra references, in percent of the triangles.
+        bvh.spatial_splits = opt("--spatial-percent", 0) as f32 / 100.0;
         let (v, t) = (vertices.clone(), triangles.clone());
         let start = Instant::now();
         let mesh = pool.install(|| MeshAccel::build_with(v, t, kind, &params).expect("valid mesh"));

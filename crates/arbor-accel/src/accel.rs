@@ -16,8 +16,9 @@ pub trait Accelerator: Send + Sync {
     /// `[ray.tmin, ray.tmax]`; traversal then shrinks `tmax` to `t`, so later
     /// calls see the shrunk ray. The caller keeps whatever it needs of the
     /// nearest hit. Every primitive whose exact hit lies within the final
-    /// interval is offered (each at most once for BVHs, possibly more than once
-    /// for spatial subdivision unless the structure mailboxes).
+    /// interval is offered (each at most once for BVHs built without spatial
+    /// splits, possibly more than once for spatial subdivision and spatial
+    /// splits: [`Accel::offers_repeats`]).
     fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
     where
         C: Counters,
@@ -105,6 +106,12 @@ impl AccelKind {
     /// The structure used when the user names none.
     pub const DEFAULT: AccelKind = AccelKind::BvhWide;
 
+    /// Whether this kind has a [`BuildQuality::High`] build: the two built
+    /// by binned SAH, `bvh-sah` and `bvh-wide`.
+    pub fn has_high_quality(self) -> bool {
+        matches!(self, AccelKind::BvhSah | AccelKind::BvhWide)
+    }
+
     /// The BVH builder this kind names, if it is a BVH.
     pub fn bvh_builder(self) -> Option<BvhBuilder> {
         match self {
@@ -168,6 +175,51 @@ pub enum Accel {
     Wide(WideBvh),
 }
 
+/// How a build trades its own time for the tree's quality.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BuildQuality {
+    /// The default: the binned SAH build (`fast`).
+    #[default]
+    Fast,
+    /// Spatial splits on top of it (SBVH, [`BvhParams::spatial_splits`];
+    /// `high`): a triangle whose box overlaps its neighbours' may be cut
+    /// and placed in several leaves. Only for the kinds of
+    /// [`AccelKind::has_high_quality`]; builds several times slower for a
+    /// few per cent faster tracing (docs/performance.md).
+    High,
+}
+
+impl BuildQuality {
+    /// Every quality, in the order tools list them.
+    pub const ALL: &'static [BuildQuality] = &[BuildQuality::Fast, BuildQuality::High];
+
+    /// The name users type.
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildQuality::Fast => "fast",
+            BuildQuality::High => "high",
+        }
+    }
+}
+
+impl fmt::Display for BuildQuality {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for BuildQuality {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        BuildQuality::ALL
+            .iter()
+            .copied()
+            .find(|q| q.name() == s)
+            .ok_or_else(|| format!("unknown build quality {s:?} (expected fast or high)"))
+    }
+}
+
 /// Parameters of every structure, for [`Accel::build_with`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AccelParams {
@@ -177,6 +229,22 @@ pub struct AccelParams {
     pub grid: GridParams,
     /// The k-d tree.
     pub kdtree: KdParams,
+}
+
+impl AccelParams {
+    /// These parameters at build quality `quality` (for
+    /// [`BuildQuality::High`], spatial splits for the binned SAH builds;
+    /// other kinds ignore them, see [`AccelKind::has_high_quality`]).
+    pub fn with_quality(self, quality: BuildQuality) -> Self {
+        let bvh = match quality {
+            BuildQuality::Fast => BvhParams {
+                spatial_splits: 0.0,
+                ..self.bvh
+            },
+            BuildQuality::High => self.bvh.high_quality(),
+        };
+        AccelParams { bvh, ..self }
+    }
 }
 
 impl Accel {
@@ -205,6 +273,18 @@ impl Accel {
 }
 
 impl Accel {
+    /// Whether traversal may offer a primitive more than once: the grid and
+    /// the k-d tree place it in every cell or leaf it overlaps, BVHs built
+    /// with spatial splits in every leaf that holds a part of it.
+    pub fn offers_repeats(&self) -> bool {
+        match self {
+            Accel::List(_) => false,
+            Accel::Bvh(a) => a.has_repeats(),
+            Accel::Grid(_) | Accel::KdTree(_) => true,
+            Accel::Wide(a) => a.has_repeats(),
+        }
+    }
+
     /// The structure's shape for drawing, in the numbering its traversal
     /// reports to a [`crate::Recorder`] (see [`Layout::index`]).
     pub fn layout(&self) -> Layout {

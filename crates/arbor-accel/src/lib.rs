@@ -69,7 +69,9 @@ mod triangle_lanes;
 mod util;
 
 pub use aabb::Aabb;
-pub use accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator, UnknownAccel};
+pub use accel::{
+    Accel, AccelKind, AccelParams, AccelStats, Accelerator, BuildQuality, UnknownAccel,
+};
 pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, WideBvh};
 pub use counters::{Counters, NoCounters, RayCounts, Recorder, Visit};
 pub use grid::{Grid, GridParams};

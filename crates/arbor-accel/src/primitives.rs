@@ -1,4 +1,4 @@
-use crate::Aabb;
+use crate::{Aabb, Vec3};
 
 /// The index of a primitive in the set a structure was built over
 /// (`0..len()`), as every API that names a primitive takes and returns it.
@@ -34,6 +34,14 @@ pub trait Primitives: Sync {
     fn clipped_bounds(&self, index: PrimitiveId, clip: &Aabb) -> Option<Aabb> {
         let b = self.bounds(index).intersection(clip);
         (!b.is_empty()).then_some(b)
+    }
+
+    /// The corners of primitive `index` if it is a triangle. Spatial splits
+    /// (the SBVH build) then cut the triangle itself; other primitives
+    /// (`None`, the default) are cut as their boxes.
+    fn corners(&self, index: PrimitiveId) -> Option<[Vec3; 3]> {
+        let _ = index;
+        None
     }
 }
 

@@ -630,6 +630,60 @@ impl Primitives for TriangleMesh {
     fn clipped_bounds(&self, index: PrimitiveId, clip: &Aabb) -> Option<Aabb> {
         clip_triangle_bounds(self.triangle(index), clip)
     }
+
+    fn corners(&self, index: PrimitiveId) -> Option<[Vec3; 3]> {
+        Some(self.triangle(index))
+    }
+}
+
+/// The boxes of the parts of a triangle inside `b` below and above the
+/// plane `axis = plane`, for spatial splits: each side's corners and the
+/// points where edges cross the plane, intersected with the side's half of
+/// `b`. Looser than the full clip (only one plane is cut), a small part of
+/// its cost. Triangles with non-finite vertices get the halves of their
+/// box's overlap with `b`.
+pub fn split_triangle_bounds(
+    tri: [Vec3; 3],
+    b: &Aabb,
+    axis: usize,
+    plane: f32,
+) -> [Option<Aabb>; 2] {
+    let (mut below_half, mut above_half) = (*b, *b);
+    below_half.max[axis] = plane;
+    above_half.min[axis] = plane;
+    let keep = |side: Aabb, half: &Aabb| {
+        let s = side.intersection(half);
+        (!s.is_empty()).then_some(s)
+    };
+    if !tri.iter().all(|p| p.is_finite()) || !plane.is_finite() {
+        let tb = Aabb::from_points(tri);
+        return [keep(tb, &below_half), keep(tb, &above_half)];
+    }
+    let (mut below, mut above) = (Aabb::EMPTY, Aabb::EMPTY);
+    // A crossing is computed in `f32` with an error of a few units of
+    // roundoff of the largest coordinate (`s` within 3u, the point within
+    // 5u of `scale`); 2^-20 of `scale` (16u) encloses it with room to spare.
+    let scale = tri
+        .iter()
+        .fold(plane.abs(), |m, p| m.max(p.abs().max_element()));
+    let margin = Vec3::splat(scale * 2.0f32.powi(-20));
+    for i in 0..3 {
+        let (p, q) = (tri[i], tri[(i + 1) % 3]);
+        if p[axis] <= plane {
+            below = below.grow(p);
+        }
+        if p[axis] >= plane {
+            above = above.grow(p);
+        }
+        if (p[axis] < plane && q[axis] > plane) || (p[axis] > plane && q[axis] < plane) {
+            let s = (plane - p[axis]) / (q[axis] - p[axis]);
+            let x = p + (q - p) * s;
+            let (lo, hi) = (x - margin, x + margin);
+            below = below.grow(lo).grow(hi);
+            above = above.grow(lo).grow(hi);
+        }
+    }
+    [keep(below, &below_half), keep(above, &above_half)]
 }
 
 /// The box around the part of a triangle inside `clip`, or `None` when the

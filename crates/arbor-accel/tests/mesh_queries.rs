@@ -3,7 +3,9 @@
 //! even, inside/outside and signed distance against analytic shapes.
 
 use arbor_accel::numerics::{intersect_triangle_owned, intersect_triangle_sheared, RayShear};
-use arbor_accel::{AccelKind, MeshAccel, MeshHit, Ray, Vec3, INSIDE_DIRECTION};
+use arbor_accel::{
+    AccelKind, AccelParams, BuildQuality, MeshAccel, MeshHit, Ray, Vec3, INSIDE_DIRECTION,
+};
 mod common;
 
 use glam::DVec3;
@@ -30,6 +32,88 @@ fn mesh() -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> {
         let tri = (0..n, 0..n, 0..n).prop_map(|(a, b, c)| [a, b, c]);
         (Just(vertices), prop::collection::vec(tri, 1..40))
     })
+}
+
+/// A larger random mesh, for the spatial-split builds (which cut only
+/// nodes of 64 triangles and more): triangles between vertices of a pool,
+/// and slivers from one pool vertex to another, whose boxes overlap the
+/// most, sharing the pool's vertices.
+fn large_mesh() -> impl Strategy<Value = (Vec<Vec3>, Vec<[u32; 3]>)> {
+    prop::collection::vec(point(), 12..60).prop_flat_map(|pool| {
+        let n = pool.len() as u32;
+        let tri = (0..n, 0..n, 0..n, any::<bool>(), point());
+        (Just(pool), prop::collection::vec(tri, 64..160)).prop_map(|(mut vertices, specs)| {
+            let mut triangles = Vec::new();
+            for (a, b, c, sliver, nudge) in specs {
+                if sliver {
+                    let tip = vertices[a as usize] + nudge * 0.02;
+                    vertices.push(tip);
+                    triangles.push([a, b, vertices.len() as u32 - 1]);
+                } else {
+                    triangles.push([a, b, c]);
+                }
+            }
+            (vertices, triangles)
+        })
+    })
+}
+
+/// Every way to build a `MeshAccel`: each kind with its parameters, and
+/// the kinds with a high-quality build with spatial splits (allowed as many
+/// extra references as there are triangles, so that small meshes are cut).
+fn builds() -> Vec<(String, AccelKind, AccelParams)> {
+    let mut all: Vec<_> = AccelKind::ALL
+        .iter()
+        .map(|&k| (k.to_string(), k, MeshAccel::params(k)))
+        .collect();
+    all.extend(spatial_builds());
+    all
+}
+
+/// The high-quality builds of [`builds`].
+fn spatial_builds() -> Vec<(String, AccelKind, AccelParams)> {
+    AccelKind::ALL
+        .iter()
+        .filter(|k| k.has_high_quality())
+        .map(|&k| {
+            let mut params = MeshAccel::params(k).with_quality(BuildQuality::High);
+            params.bvh.spatial_splits = 1.0;
+            (format!("{k} high"), k, params)
+        })
+        .collect()
+}
+
+/// Asserts that `mesh` answers every ray query on `rays` as brute force
+/// does: the same crossings in the same order (single and batch), counts,
+/// the closest hit's distance and occlusion.
+fn assert_ray_queries_equal_brute_force(
+    name: &str,
+    mesh: &MeshAccel,
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    rays: &[Ray],
+) -> Result<(), TestCaseError> {
+    let batch = mesh.all_hits_batch(rays);
+    let offsets = batch.offsets();
+    for (i, ray) in rays.iter().enumerate() {
+        let want = brute_all_hits(vertices, triangles, ray);
+        prop_assert_eq!(&mesh.all_hits(ray), &want, "{} ray {:?}", name, ray);
+        prop_assert_eq!(batch.of(&offsets, i), &want[..], "{} batch", name);
+        prop_assert_eq!(mesh.count(ray) as usize, want.len(), "{} count", name);
+        let t = mesh.closest(ray).map(|h| h.hit.t);
+        prop_assert_eq!(
+            t,
+            brute_closest_t(vertices, triangles, ray),
+            "{} closest",
+            name
+        );
+        prop_assert_eq!(mesh.occluded(ray), t.is_some(), "{} occluded", name);
+    }
+    prop_assert_eq!(
+        mesh.count_batch(rays),
+        rays.iter().map(|r| mesh.count(r)).collect::<Vec<_>>()
+    );
+    Ok(())
 }
 
 /// Rays: free, or aimed at a vertex or an edge midpoint of the mesh.
@@ -129,23 +213,26 @@ proptest! {
     #[test]
     fn ray_queries_equal_brute_force((vertices, triangles) in mesh(), specs in ray_specs()) {
         let rays = rays(&vertices, &specs);
-        for &kind in AccelKind::ALL {
-            let mesh = MeshAccel::build(vertices.clone(), triangles.clone(), kind).unwrap();
-            let batch = mesh.all_hits_batch(&rays);
-            let offsets = batch.offsets();
-            for (i, ray) in rays.iter().enumerate() {
-                let want = brute_all_hits(&vertices, &triangles, ray);
-                prop_assert_eq!(&mesh.all_hits(ray), &want, "{} ray {:?}", kind, ray);
-                prop_assert_eq!(batch.of(&offsets, i), &want[..], "{} batch", kind);
-                prop_assert_eq!(mesh.count(ray) as usize, want.len(), "{} count", kind);
-                let t = mesh.closest(ray).map(|h| h.hit.t);
-                prop_assert_eq!(t, brute_closest_t(&vertices, &triangles, ray), "{} closest", kind);
-                prop_assert_eq!(mesh.occluded(ray), t.is_some(), "{} occluded", kind);
-            }
-            prop_assert_eq!(
-                mesh.count_batch(&rays),
-                rays.iter().map(|r| mesh.count(r)).collect::<Vec<_>>()
-            );
+        for (name, kind, params) in builds() {
+            let mesh =
+                MeshAccel::build_with(vertices.clone(), triangles.clone(), kind, &params).unwrap();
+            assert_ray_queries_equal_brute_force(&name, &mesh, &vertices, &triangles, &rays)?;
+        }
+    }
+
+    /// The same on meshes large enough for spatial splits, whose trees
+    /// offer a cut triangle once per leaf holding a part of it: the
+    /// crossing queries still report each crossing once.
+    #[test]
+    fn spatial_split_builds_answer_ray_queries_like_brute_force(
+        (vertices, triangles) in large_mesh(),
+        specs in ray_specs(),
+    ) {
+        let rays = rays(&vertices, &specs);
+        for (name, kind, params) in spatial_builds() {
+            let mesh =
+                MeshAccel::build_with(vertices.clone(), triangles.clone(), kind, &params).unwrap();
+            assert_ray_queries_equal_brute_force(&name, &mesh, &vertices, &triangles, &rays)?;
         }
     }
 
@@ -232,13 +319,14 @@ fn assert_even_counts(vertices: &[Vec3], triangles: &[[u32; 3]], origins: &[Vec3
                 .map(move |&p| Ray::new(o, p - o, 0.0, f32::INFINITY))
         })
         .collect();
-    for &kind in AccelKind::ALL {
-        let mesh = MeshAccel::build(vertices.to_vec(), triangles.to_vec(), kind).unwrap();
+    for (name, kind, params) in builds() {
+        let mesh =
+            MeshAccel::build_with(vertices.to_vec(), triangles.to_vec(), kind, &params).unwrap();
         assert_eq!(mesh.open_edges(), 0);
         let mut odd = 0;
         for (ray, n) in rays.iter().zip(mesh.count_batch(&rays)) {
             odd += n % 2;
-            assert!(n % 2 == 0, "{kind}: {n} crossings for {ray:?}");
+            assert!(n % 2 == 0, "{name}: {n} crossings for {ray:?}");
         }
         assert_eq!(odd, 0);
     }
@@ -304,14 +392,14 @@ fn silhouette_touches_count_zero_or_two() {
             f32::INFINITY,
         ),
     ];
-    for &kind in AccelKind::ALL {
-        let mesh = MeshAccel::build(v.clone(), t.clone(), kind).unwrap();
+    for (name, kind, params) in builds() {
+        let mesh = MeshAccel::build_with(v.clone(), t.clone(), kind, &params).unwrap();
         for ray in &through {
-            assert_eq!(mesh.count(ray), 2, "{kind}: {ray:?}");
+            assert_eq!(mesh.count(ray), 2, "{name}: {ray:?}");
         }
         for ray in &touching {
             let n = mesh.count(ray);
-            assert!(n == 0 || n == 2, "{kind}: {n} for {ray:?}");
+            assert!(n == 0 || n == 2, "{name}: {n} for {ray:?}");
         }
     }
 }

@@ -9,6 +9,7 @@
 mod lanes;
 mod packet;
 mod ploc;
+mod spatial;
 mod sweep;
 mod topdown;
 mod triangles;
@@ -133,6 +134,26 @@ pub struct BvhParams {
     /// Subtrees with at least this many primitives are built in parallel.
     /// Results do not depend on it or on the thread count. Default 4096.
     pub parallel_threshold: usize,
+    /// The binned SAH builder with spatial splits (SBVH): the extra
+    /// references splits may add, as a fraction of the primitive count.
+    /// 0 (the default) builds without; [`BvhParams::HIGH_QUALITY_SPATIAL_SPLITS`]
+    /// is the high-quality build's. Trees with repeats answer the same
+    /// queries (counts drop the repeats) and are slower to build.
+    pub spatial_splits: f32,
+}
+
+impl BvhParams {
+    /// The extra references the high-quality build allows (`spatial_splits`).
+    pub const HIGH_QUALITY_SPATIAL_SPLITS: f32 = 0.1;
+
+    /// These parameters with spatial splits on, as the high-quality build
+    /// (`--quality high`) uses them.
+    pub fn high_quality(self) -> Self {
+        BvhParams {
+            spatial_splits: Self::HIGH_QUALITY_SPATIAL_SPLITS,
+            ..self
+        }
+    }
 }
 
 impl Default for BvhParams {
@@ -146,6 +167,7 @@ impl Default for BvhParams {
             bins: 16,
             ploc_radius: 16,
             parallel_threshold: 4096,
+            spatial_splits: 0.0,
         }
     }
 }
@@ -208,6 +230,8 @@ pub struct Bvh {
     prims: Vec<u32>,
     unbounded: Vec<u32>,
     max_depth: usize,
+    /// Whether a primitive sits in more than one leaf (spatial splits).
+    repeats: bool,
 }
 
 impl Bvh {
@@ -230,6 +254,12 @@ impl Bvh {
         let (nodes, order, depth) = match builder {
             BvhBuilder::Center => topdown::build(&topdown::Center, &mut refs, params),
             BvhBuilder::Median => topdown::build(&topdown::Median, &mut refs, params),
+            BvhBuilder::BinnedSah if params.spatial_splits > 0.0 => {
+                let n = refs.len();
+                let built = spatial::build(prims, &refs, params);
+                bvh.repeats = built.1.len() > n;
+                built
+            }
             BvhBuilder::BinnedSah => topdown::build(&topdown::Binned, &mut refs, params),
             BvhBuilder::SweepSah => sweep::build(&refs, params),
             BvhBuilder::Ploc => ploc::build(&refs, params),
@@ -248,6 +278,12 @@ impl Bvh {
     /// Primitive ids in leaf order.
     pub fn prim_indices(&self) -> &[u32] {
         &self.prims
+    }
+
+    /// Whether some primitive sits in more than one leaf (a build with
+    /// [`BvhParams::spatial_splits`]), so that traversal may offer it twice.
+    pub fn has_repeats(&self) -> bool {
+        self.repeats
     }
 
     /// The nodes for drawing, indexed as [`Bvh::nodes`] (and as traversal

@@ -7,10 +7,25 @@ use rayon::prelude::*;
 use glam::{Vec3, Vec4};
 
 use super::{BvhNode, BvhParams, Ref, Subtree, FORCE_MEDIAN_DEPTH};
+
+/// What the builders partition: a [`Ref`] alone, or one carried with the
+/// primitive's geometry (spatial splits cut triangles without reading the
+/// mesh again).
+pub(super) trait Item: Copy + Send + Sync {
+    /// The reference: id and box.
+    fn reference(&self) -> &Ref;
+}
+
+impl Item for Ref {
+    #[inline(always)]
+    fn reference(&self) -> &Ref {
+        self
+    }
+}
 use crate::Aabb;
 
 /// Chunk of references binned or bounded by one task in parallel loops.
-const CHUNK: usize = 1 << 14;
+pub(super) const CHUNK: usize = 1 << 14;
 
 /// Box and centroid box of a node.
 pub(super) type Bounds = (Aabb, Aabb);
@@ -51,9 +66,11 @@ pub(super) fn build<S: Splitter>(
 
 /// Box and centroid box of `refs`; min and max are exact, so the parallel
 /// reduction gives the same answer in any order.
-pub(super) fn bounds_of(refs: &[Ref]) -> Bounds {
-    let fold =
-        |acc: [B4; 2], r: &Ref| [acc[0].grow(r.min, r.max), acc[1].grow_point(r.centroid4())];
+pub(super) fn bounds_of<T: Item>(refs: &[T]) -> Bounds {
+    let fold = |acc: [B4; 2], r: &T| {
+        let r = r.reference();
+        [acc[0].grow(r.min, r.max), acc[1].grow_point(r.centroid4())]
+    };
     let merge = |a: [B4; 2], b: [B4; 2]| [a[0].union(&b[0]), a[1].union(&b[1])];
     let empty = [B4::EMPTY; 2];
     let [b, c] = if refs.len() > 2 * CHUNK {
@@ -159,9 +176,10 @@ pub(super) fn recurse<S: Splitter>(
 
 /// Splits into halves by count along `axis`, ties broken by id so the result
 /// is the same however the references arrived.
-pub(super) fn median_split(refs: &mut [Ref], axis: usize) -> Split {
+pub(super) fn median_split<T: Item>(refs: &mut [T], axis: usize) -> Split {
     let k = refs.len() / 2;
     refs.select_nth_unstable_by(k, |a, b| {
+        let (a, b) = (a.reference(), b.reference());
         a.centroid()[axis]
             .total_cmp(&b.centroid()[axis])
             .then(a.id().cmp(&b.id()))
@@ -228,7 +246,7 @@ impl B4 {
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 
-    fn aabb(&self) -> Aabb {
+    pub(super) fn aabb(&self) -> Aabb {
         Aabb::new(self.min.truncate(), self.max.truncate())
     }
 }
@@ -269,7 +287,7 @@ const MAX_BINS: usize = 32;
 /// Nodes this small are binned with 8 bins whatever `params.bins` says:
 /// clearing and sweeping more bins costs more than it gains here
 /// (docs/perf-log/2026-12-01-intel-build.md keeps the measurement).
-const SMALL: usize = 256;
+pub(super) const SMALL: usize = 256;
 
 /// Nodes from this size on bin a 1-in-4 sample.
 const SAMPLE_FROM: usize = 1 << 12;
@@ -384,7 +402,7 @@ impl Splitter for Binned {
 /// Exact SAH for two or three references: every split separates one
 /// reference from the rest, so all candidates are enumerated directly,
 /// cheaper than clearing bins and better than binning.
-pub(super) fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
+pub(super) fn tiny<T: Item>(refs: &mut [T], b: &Aabb, params: &BvhParams) -> Split {
     let n = refs.len();
     let tests = |n: usize| leaf_tests(n as u32, params);
     let mut best = (f32::INFINITY, 0);
@@ -393,8 +411,10 @@ pub(super) fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
             .iter()
             .enumerate()
             .filter(|&(j, _)| j != i)
-            .fold(B4::EMPTY, |acc, (_, r)| acc.grow(r.min, r.max));
-        let one = B4::EMPTY.grow(refs[i].min, refs[i].max);
+            .fold(B4::EMPTY, |acc, (_, r)| {
+                acc.grow(r.reference().min, r.reference().max)
+            });
+        let one = B4::EMPTY.grow(refs[i].reference().min, refs[i].reference().max);
         let cost = one.area() + rest.area() * tests(n - 1);
         if cost < best.0 {
             best = (cost, i);
@@ -420,7 +440,7 @@ pub(super) fn tiny(refs: &mut [Ref], b: &Aabb, params: &BvhParams) -> Split {
 /// per SAH candidate, so the usual power-of-two block is a shift, not an
 /// integer division (tens of cycles each).
 #[inline(always)]
-fn leaf_tests(n: u32, params: &BvhParams) -> f32 {
+pub(super) fn leaf_tests(n: u32, params: &BvhParams) -> f32 {
     let block = params.leaf_block.max(1) as u32;
     let tests = if block.is_power_of_two() {
         (n >> block.trailing_zeros()) + u32::from(n & (block - 1) != 0)
@@ -436,7 +456,7 @@ fn binned<const B: usize>(refs: &mut [Ref], b: &Aabb, cb: &Aabb, params: &BvhPar
     // thousands picks practically the same plane, and binning is the
     // costliest pass.
     let stride = if n >= SAMPLE_FROM { 4 } else { 1 };
-    let Some(plan) = object_plan::<B>(refs, cb, params, stride) else {
+    let Some(plan) = object_plan::<B, _>(refs, cb, params, stride) else {
         return if n <= params.max_leaf_size {
             Split::Leaf
         } else {
@@ -495,8 +515,8 @@ impl ObjectPlan {
 /// Bins every `stride`-th reference's centroid into `B` bins per axis and
 /// sweeps the planes between bins for the cheapest SAH split; `None` when
 /// no plane separates anything (all centroids in one bin on every axis).
-pub(super) fn object_plan<const B: usize>(
-    refs: &[Ref],
+pub(super) fn object_plan<const B: usize, T: Item>(
+    refs: &[T],
     cb: &Aabb,
     params: &BvhParams,
     stride: usize,
@@ -516,8 +536,9 @@ pub(super) fn object_plan<const B: usize>(
     // does not depend on the thread count. Bins are filled in place: passed
     // and returned by value, they were copied (a kilobyte or two) twice per
     // node.
-    let fill = |acc: &mut Bins<B>, chunk: &[Ref]| {
+    let fill = |acc: &mut Bins<B>, chunk: &[T]| {
         for r in chunk.iter().step_by(stride) {
+            let r = r.reference();
             let k = binner.indices(r.centroid4());
             for (a, &i) in k.iter().enumerate() {
                 acc.b[a][i] = acc.b[a][i].grow(r.min, r.max);
@@ -585,9 +606,13 @@ pub(super) fn object_plan<const B: usize>(
 
 /// [`partition`] by centroid, also returning both sides' boxes and
 /// centroid boxes: `[left box, left centroids, right box, right centroids]`.
-pub(super) fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) -> (usize, [B4; 4]) {
+pub(super) fn partition_bounds<T: Item>(
+    refs: &mut [T],
+    left: impl Fn(Vec4) -> bool,
+) -> (usize, [B4; 4]) {
     let mut acc = [B4::EMPTY; 4];
-    let add = |acc: &mut [B4; 4], side: usize, r: &Ref, c: Vec4| {
+    let add = |acc: &mut [B4; 4], side: usize, r: &T, c: Vec4| {
+        let r = r.reference();
         acc[2 * side] = acc[2 * side].grow(r.min, r.max);
         acc[2 * side + 1] = acc[2 * side + 1].grow_point(c);
     };
@@ -595,7 +620,7 @@ pub(super) fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) ->
     let mut j = refs.len();
     loop {
         while i < j {
-            let c = refs[i].centroid4();
+            let c = refs[i].reference().centroid4();
             if !left(c) {
                 break;
             }
@@ -603,7 +628,7 @@ pub(super) fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) ->
             i += 1;
         }
         while i < j {
-            let c = refs[j - 1].centroid4();
+            let c = refs[j - 1].reference().centroid4();
             if left(c) {
                 break;
             }
@@ -615,8 +640,13 @@ pub(super) fn partition_bounds(refs: &mut [Ref], left: impl Fn(Vec4) -> bool) ->
         }
         // refs[i] belongs right and refs[j - 1] left: swap and account.
         refs.swap(i, j - 1);
-        add(&mut acc, 0, &refs[i], refs[i].centroid4());
-        add(&mut acc, 1, &refs[j - 1], refs[j - 1].centroid4());
+        add(&mut acc, 0, &refs[i], refs[i].reference().centroid4());
+        add(
+            &mut acc,
+            1,
+            &refs[j - 1],
+            refs[j - 1].reference().centroid4(),
+        );
         i += 1;
         j -= 1;
     }

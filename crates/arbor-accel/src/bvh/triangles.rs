@@ -143,6 +143,12 @@ impl TriangleBvh {
         }
     }
 
+    /// Whether a triangle sits in more than one leaf (a build with spatial
+    /// splits), so that traversal may offer it twice.
+    pub fn has_repeats(&self) -> bool {
+        self.bvh.has_repeats()
+    }
+
     /// The closest hit within `[ray.tmin, ray.tmax]`. Of hits at the same
     /// distance, the first offered wins (as with [`WideBvh`] and a caller
     /// that keeps the first of equal hits).

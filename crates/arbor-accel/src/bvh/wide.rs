@@ -65,6 +65,8 @@ pub struct WideBvh {
     pub(super) bounds: Aabb,
     max_depth: usize,
     sah_cost: Option<f64>,
+    /// Whether a primitive sits in more than one leaf ([`Bvh::has_repeats`]).
+    repeats: bool,
 }
 
 impl WideBvh {
@@ -88,6 +90,7 @@ impl WideBvh {
             bounds: Aabb::EMPTY,
             max_depth: 0,
             sah_cost: bin.sah_cost(1.0, 1.0),
+            repeats: bin.has_repeats(),
         };
         let bn = &bin.nodes;
         if bn.is_empty() {
@@ -262,7 +265,12 @@ impl Accelerator for WideBvh {
 }
 
 impl WideBvh {
-    /// Primitives without a finite box, which every ray must be offered.
+    /// Whether a primitive sits in more than one leaf ([`Bvh::has_repeats`]).
+    pub(crate) fn has_repeats(&self) -> bool {
+        self.repeats
+    }
+
+    /// Primitives without a finite box, offered to every ray.
     pub(crate) fn unbounded(&self) -> &[u32] {
         &self.unbounded
     }

@@ -355,14 +355,15 @@ impl MeshAccel {
         }
     }
 
-    /// Whether [`MeshAccel::for_each_crossing`] may report a triangle more
-    /// than once (spatial subdivision places a triangle in every cell or
-    /// leaf it overlaps).
-    fn offers_repeats(&self) -> bool {
-        matches!(
-            self.index,
-            Index::Generic(Accel::Grid(_) | Accel::KdTree(_), _)
-        )
+    /// Whether traversal may meet a triangle more than once (the grid and
+    /// the k-d tree place a triangle in every cell or leaf it overlaps, a
+    /// [`BuildQuality::High`](crate::BuildQuality) tree in every leaf that
+    /// holds a part of it); the crossing queries then drop the repeats.
+    pub fn offers_repeats(&self) -> bool {
+        match &self.index {
+            Index::Wide(bvh) => bvh.has_repeats(),
+            Index::Generic(accel, _) => accel.offers_repeats(),
+        }
     }
 
     /// Builds the point queries' structures now rather than on the first
