@@ -669,3 +669,32 @@ fn winding_numbers_on_a_sphere_are_within_a_hundredth() {
     }
     assert!(worst < 1e-2, "largest error {worst}");
 }
+
+/// A ray through a hundred strips stacked above one another: every
+/// crossing counted once by every build, including those that may offer a
+/// triangle twice (the grid, the k-d tree, spatial splits) past the count's
+/// inline list of 32 triangles.
+#[test]
+fn counts_through_a_hundred_strips_count_each_crossing_once() {
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    for i in 0..100u32 {
+        let (y, z) = ((i % 7) as f32 * 0.01, i as f32 * 0.1);
+        let b = v.len() as u32;
+        v.extend([
+            Vec3::new(-10.0, y, z),
+            Vec3::new(10.0, y, z),
+            Vec3::new(10.0, y + 0.2, z),
+            Vec3::new(-10.0, y + 0.2, z),
+        ]);
+        t.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+    }
+    let ray = Ray::new(Vec3::new(0.3, 0.1, -1.0), Vec3::Z, 0.0, f32::INFINITY);
+    let mut repeating = 0;
+    for (name, kind, params) in builds() {
+        let mesh = MeshAccel::build_with(v.clone(), t.clone(), kind, &params).unwrap();
+        repeating += usize::from(mesh.offers_repeats());
+        assert_eq!(mesh.count(&ray), 100, "{name}");
+        assert_eq!(mesh.all_hits(&ray).len(), 100, "{name}");
+    }
+    assert!(repeating >= 2);
+}

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use arbor::load::load_ray_mesh;
-use arbor_accel::{AccelKind, MeshAccel};
+use arbor_accel::{AccelKind, BuildQuality, MeshAccel};
 use clap::Args;
 
 use crate::InputError;
@@ -26,37 +26,70 @@ pub struct RunArgs {
     /// binary BVH either way).
     #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
     pub accel: Option<AccelKind>,
+    /// Build quality of the ray structure: fast (default) or high (spatial
+    /// splits: a slower build for faster tracing; bvh-wide and bvh-sah).
+    #[arg(long, value_name = "Q", default_value = "fast", value_parser = parse_quality)]
+    pub quality: BuildQuality,
+}
+
+/// Parses `--quality`.
+fn parse_quality(name: &str) -> Result<BuildQuality, String> {
+    name.parse()
+}
+
+/// The structure a batch command builds: its kind and build quality.
+#[derive(Clone, Copy, Debug)]
+pub struct Structure {
+    /// Which structure.
+    pub kind: AccelKind,
+    /// How carefully it is built.
+    pub quality: BuildQuality,
 }
 
 impl RunArgs {
     /// What every batch command starts with: the structure asked for (or
     /// the default), a pool of the threads asked for, and pending outputs
     /// removed on an interrupt.
-    pub fn start(&self) -> anyhow::Result<(AccelKind, rayon::ThreadPool)> {
+    pub fn start(&self) -> anyhow::Result<(Structure, rayon::ThreadPool)> {
         let kind = self.accel.unwrap_or(AccelKind::DEFAULT);
+        if self.quality == BuildQuality::High && !kind.has_high_quality() {
+            return Err(InputError(format!(
+                "--quality high builds spatial splits, which only bvh-wide and bvh-sah have, \
+                 not {kind}"
+            ))
+            .into());
+        }
         let pool = crate::thread_pool(self.threads.map(|n| n as usize))?;
         crate::output::remove_pending_on_interrupt();
-        Ok((kind, pool))
+        Ok((
+            Structure {
+                kind,
+                quality: self.quality,
+            },
+            pool,
+        ))
     }
 }
 
 /// Loads `path` as a triangle mesh (polygons split as fans, triangles
-/// numbered in file order) and builds `kind` over it `repeat` times on the
-/// current pool; returns the last build and the fastest build's time in
+/// numbered in file order) and builds `structure` over it `repeat` times on
+/// the current pool; returns the last build and the fastest build's time in
 /// milliseconds (Embree's is timed the same way, its buffer copies
 /// included).
 pub fn load_and_build(
     path: &Path,
-    kind: AccelKind,
+    structure: Structure,
     repeat: usize,
 ) -> anyhow::Result<(MeshAccel, f64)> {
+    let kind = structure.kind;
+    let params = MeshAccel::params(kind).with_quality(structure.quality);
     let data = load_ray_mesh(path).map_err(|e| InputError(e.to_string()))?;
     let mut best = f64::INFINITY;
     let mut built = None;
     for _ in 0..repeat.max(1) {
         let (positions, triangles) = (data.positions.clone(), data.triangles.clone());
         let start = Instant::now();
-        let mesh = MeshAccel::build(positions, triangles, kind)
+        let mesh = MeshAccel::build_with(positions, triangles, kind, &params)
             .map_err(|e| InputError(format!("{}: {e}", path.display())))?;
         best = best.min(ms_since(start));
         built = Some(mesh);

@@ -145,13 +145,13 @@ fn run(
     query: Query,
     answer: impl Fn(&MeshAccel, &[Vec3], &[f32]) -> (Vec<u8>, usize) + Sync,
 ) -> anyhow::Result<()> {
-    let (kind, pool) = args.run.start()?;
+    let (structure, pool) = args.run.start()?;
     let repeat = args.run.repeat as usize;
     if let Some(path) = &args.out {
         crate::output::check_writable(path, "--out")?;
     }
     let (mesh, build_ms) = pool.install(|| {
-        let (mesh, ms) = batch::load_and_build(&args.mesh, kind, repeat)?;
+        let (mesh, ms) = batch::load_and_build(&args.mesh, structure, repeat)?;
         let start = std::time::Instant::now();
         // Part of the build: the structures this query uses.
         if query.closest {
@@ -190,7 +190,8 @@ fn run(
         "points": points.len(),
         "found": answers.1,
         "threads": pool.current_num_threads(),
-        "accel": kind.name(),
+        "accel": structure.kind.name(),
+        "quality": structure.quality.name(),
         "build_ms": batch::millis(build_ms),
         "query_ms_median": batch::millis(median),
         "query_ms_min": batch::millis(min),

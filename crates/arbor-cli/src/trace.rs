@@ -78,13 +78,13 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         (None, true) => Query::Occluded,
         (None, false) => Query::Closest,
     };
-    let (kind, pool) = args.run.start()?;
+    let (structure, pool) = args.run.start()?;
     let repeat = args.run.repeat as usize;
     // Everything the user can get wrong is checked before the slow part.
     if let Some(path) = &args.hits {
         crate::output::check_writable(path, "--hits")?;
     }
-    let (mesh, build_ms) = pool.install(|| batch::load_and_build(&args.mesh, kind, repeat))?;
+    let (mesh, build_ms) = pool.install(|| batch::load_and_build(&args.mesh, structure, repeat))?;
     let rays = read_rays(&args.rays)?;
 
     // Only the queries are timed (as embree_trace times them): the answer
@@ -102,7 +102,8 @@ pub fn run(args: TraceArgs) -> anyhow::Result<()> {
         "hits": hits,
         "threads": pool.current_num_threads(),
         "query": query.name(),
-        "accel": kind.name(),
+        "accel": structure.kind.name(),
+        "quality": structure.quality.name(),
         "build_ms": batch::millis(build_ms),
         "trace_ms_median": batch::millis(median),
         "trace_ms_min": batch::millis(min),

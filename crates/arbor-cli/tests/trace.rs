@@ -316,6 +316,20 @@ fn bad_input_exits_2_without_output() {
         &["--accel", "octopus"],
         "unknown accelerator 'octopus'",
     );
+    fails(
+        &f,
+        &f.mesh,
+        &f.rays,
+        &["--quality", "high", "--accel", "grid"],
+        "--quality high builds spatial splits, which only bvh-wide and bvh-sah have, not grid",
+    );
+    fails(
+        &f,
+        &f.mesh,
+        &f.rays,
+        &["--quality", "best"],
+        "unknown build quality \"best\" (expected fast or high)",
+    );
     fails(&f, &f.mesh, &f.rays, &["--threads", "0"], "--threads");
     fails(&f, &f.mesh, &f.rays, &["--repeat", "0"], "--repeat");
 }
@@ -377,6 +391,53 @@ fn rays_around(mesh: &Path, n: usize) -> Vec<Vec<u8>> {
             ray(o, 0.0, d, tfar)
         })
         .collect()
+}
+
+/// `--quality high` (spatial splits) answers every query as the default
+/// build does: the same closest distances, occlusion bytes, counts and
+/// every-hit records, for both kinds that have it.
+#[test]
+fn high_quality_builds_answer_like_the_default() {
+    let Some(mesh) = arbor_test_data::test_b("bunny1k.msh") else {
+        return;
+    };
+    let f = Fixture::new(&rays_around(&mesh, 4000));
+    let run = |kind: &str, quality: &str, query: &str| {
+        let out = f.out(&format!("{kind}.{quality}.{query}"));
+        let result = trace(
+            &mesh,
+            &f.rays,
+            &out,
+            &["--accel", kind, "--quality", quality, "--query", query],
+        );
+        assert!(
+            result.status.success(),
+            "{kind} {quality} {query}: {}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        assert_eq!(
+            field(&String::from_utf8_lossy(&result.stdout), "quality"),
+            quality
+        );
+        out
+    };
+    for kind in ["bvh-wide", "bvh-sah"] {
+        let (fast, high) = (run(kind, "fast", "closest"), run(kind, "high", "closest"));
+        let (fast, high) = (read_hits(&fast), read_hits(&high));
+        assert_eq!(fast.len(), high.len());
+        for (i, (a, b)) in fast.iter().zip(&high).enumerate() {
+            // Another triangle only where two lie at the same distance.
+            assert!(
+                a == b || a.t == b.t,
+                "{kind}, ray {i}: fast {a:?}, high {b:?}"
+            );
+        }
+        for query in ["occluded", "count", "all"] {
+            let fast = std::fs::read(run(kind, "fast", query)).unwrap();
+            let high = std::fs::read(run(kind, "high", query)).unwrap();
+            assert!(fast == high, "{kind} {query}: the answers differ");
+        }
+    }
 }
 
 #[test]

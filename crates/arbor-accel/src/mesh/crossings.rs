@@ -72,8 +72,8 @@ impl MeshAccel {
     }
 
     /// How many crossings [`MeshAccel::all_hits`] finds, without storing
-    /// them (for the BVHs; spatial subdivision needs the list to drop
-    /// repeated offers).
+    /// them (where a structure may offer a triangle twice, only the
+    /// triangles that reported one).
     pub fn count(&self, ray: &Ray) -> u32 {
         self.count_counted(ray, &mut NoCounters)
     }
@@ -81,9 +81,24 @@ impl MeshAccel {
     /// [`MeshAccel::count`], counting nodes and tests into `counters`.
     pub fn count_counted<C: Counters>(&self, ray: &Ray, counters: &mut C) -> u32 {
         if self.offers_repeats() {
-            let mut hits = Vec::new();
-            self.all_hits_into(ray, counters, &mut hits);
-            return hits.len() as u32;
+            // A triangle reports at most one crossing, so distinct triangles
+            // are distinct crossings: the first few on the stack (a ray
+            // rarely crosses more), the rest in a list.
+            const INLINE: usize = 32;
+            let mut first = [0u32; INLINE];
+            let (mut n, mut more) = (0, Vec::new());
+            self.for_each_crossing(ray, counters, |hit| {
+                let p = hit.prim;
+                if !first[..n].contains(&p) && !more.contains(&p) {
+                    if n < INLINE {
+                        first[n] = p;
+                        n += 1;
+                    } else {
+                        more.push(p);
+                    }
+                }
+            });
+            return (n + more.len()) as u32;
         }
         let mut n = 0;
         self.for_each_crossing(ray, counters, |_| n += 1);
