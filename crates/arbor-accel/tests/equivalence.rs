@@ -160,16 +160,27 @@ fn triangles() -> impl Strategy<Value = TriangleMesh> {
 }
 
 /// Soups large enough for spatial splits (which cut only nodes of 64
-/// references and more), with slivers whose boxes overlap the most.
+/// references and more): small triangles with long slivers across them,
+/// the case spatial splits are for, and a few arbitrary ones.
 fn large_soups() -> impl Strategy<Value = TriangleMesh> {
-    let sliver = (point(), point()).prop_map(|(a, b)| [a, b, b + (b - a).cross(Vec3::Z) * 0.01]);
-    (soup(64..160), prop::collection::vec(sliver, 0..40)).prop_map(|(soup, slivers)| {
-        let mut tris: Vec<[Vec3; 3]> = (0..soup.triangles.len() as u32)
-            .map(|i| soup.triangle(i))
-            .collect();
-        tris.extend(slivers);
-        mesh_of(&tris)
-    })
+    // Without the far outliers of `point`, beside which every overlap is
+    // too small to try spatial splits.
+    let near = || {
+        let c = || prop_oneof![3 => -10.0f32..10.0, 1 => (-4i32..=4).prop_map(|i| i as f32)];
+        (c(), c(), c()).prop_map(|(x, y, z)| Vec3::new(x, y, z))
+    };
+    let small = (near(), near(), near()).prop_map(|(a, b, c)| [a, a + b * 0.1, a + c * 0.1]);
+    let sliver = (near(), near()).prop_map(|(a, b)| [a, b, b + (b - a).cross(Vec3::Z) * 0.01]);
+    (
+        prop::collection::vec(small, 64..160),
+        prop::collection::vec(sliver, 4..24),
+        soup(0..8),
+    )
+        .prop_map(|(mut tris, slivers, soup)| {
+            tris.extend(slivers);
+            tris.extend((0..soup.triangles.len() as u32).map(|i| soup.triangle(i)));
+            mesh_of(&tris)
+        })
 }
 
 /// A soup of `sizes` triangles: large ones, small clusters, degenerate ones.
