@@ -38,6 +38,13 @@ def test_unknown_accel_is_a_value_error():
         arbor.Mesh(V, F, accel="octree")
 
 
+def test_bad_quality_is_a_value_error():
+    with pytest.raises(ValueError, match='quality: unknown build quality "best" \\(expected fast or high\\)'):
+        arbor.Mesh(V, F, quality="best")
+    with pytest.raises(ValueError, match='quality: "high" builds spatial splits, which only bvh-wide and bvh-sah have, not grid'):
+        arbor.Mesh(V, F, accel="grid", quality="high")
+
+
 @pytest.mark.parametrize("query", ["intersect", "occluded"])
 @pytest.mark.parametrize(
     "args, kwargs, message",

@@ -100,6 +100,29 @@ def test_intersect_and_occluded_equal_arbor_trace(rng, tmp_path):
     np.testing.assert_array_equal(mesh.occluded(o32, d32, tmin, tmax), blocked)
 
 
+def test_high_quality_builds_answer_as_the_fast_build(rng):
+    # Small triangles under long slivers: spatial splits cut the slivers.
+    centres = rng.random((400, 1, 3))
+    small = (centres + rng.normal(0, 0.02, (400, 3, 3))).reshape(-1, 3)
+    starts = rng.random((60, 3))
+    ends = 1 - starts
+    slivers = np.stack([starts, ends, ends + 0.01], axis=1).reshape(-1, 3)
+    vertices = np.concatenate([small, slivers])
+    faces = np.arange(len(vertices)).reshape(-1, 3)
+    origins, directions = random_rays(rng, 3000)
+    for accel in ["bvh-wide", "bvh-sah"]:
+        fast = arbor.Mesh(vertices, faces, accel=accel)
+        high = arbor.Mesh(vertices, faces, accel=accel, quality="high")
+        assert (fast.quality, high.quality) == ("fast", "high")
+        a, b = fast.intersect(origins, directions), high.intersect(origins, directions)
+        assert (a["triangle"] >= 0).sum() > 300
+        np.testing.assert_array_equal(a["t"], b["t"])
+        np.testing.assert_array_equal(fast.occluded(origins, directions), high.occluded(origins, directions))
+        np.testing.assert_array_equal(fast.count(origins, directions), high.count(origins, directions))
+        for key, column in fast.all_hits(origins, directions).items():
+            np.testing.assert_array_equal(column, high.all_hits(origins, directions)[key], err_msg=key)
+
+
 def test_tmin_and_tmax_scalars_and_arrays():
     vertices, faces = box()
     mesh = arbor.Mesh(vertices, faces)
