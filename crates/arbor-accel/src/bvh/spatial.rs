@@ -284,14 +284,9 @@ impl Builder<'_> {
         let object_cost = object.as_ref().map_or(f32::INFINITY, |o| o.cost);
         // Overlapping children (or centroids that no plane separates) are
         // where a spatial split can pay.
-        let overlap = object.as_ref().map_or(f32::INFINITY, |o| {
-            let both = o.left.intersection(&o.right);
-            if both.is_empty() {
-                0.0
-            } else {
-                both.surface_area()
-            }
-        });
+        let overlap = object
+            .as_ref()
+            .map_or(f32::INFINITY, |o| area(&o.left.intersection(&o.right)));
         let tried = overlap > self.min_overlap && overlap >= MIN_NODE_OVERLAP * b.surface_area();
         let spatial = if room > 0 && n >= SPATIAL_FROM && tried {
             self.spatial_plan(&refs, &b)
@@ -324,19 +319,8 @@ impl Builder<'_> {
         };
         let (k, [lb, lc, rb, rc]) = partition_bounds(&mut refs, |c| object.goes_left(c));
         let right = refs.split_off(k);
-        let (left_room, right_room) = share(room, k, right.len());
-        Ok((
-            Side {
-                refs,
-                bounds: (lb.aabb(), lc.aabb()),
-                room: left_room,
-            },
-            Side {
-                refs: right,
-                bounds: (rb.aabb(), rc.aabb()),
-                room: right_room,
-            },
-        ))
+        let bounds = [(lb.aabb(), lc.aabb()), (rb.aabb(), rc.aabb())];
+        Ok(sides(refs, right, bounds, room))
     }
 
     /// Bins the references' clipped parts into `BINS` equal slabs of the
@@ -451,20 +435,8 @@ impl Builder<'_> {
             return None;
         }
         let repeats = left.len() + right.len() - n;
-        let (left_room, right_room) = share(room.saturating_sub(repeats), left.len(), right.len());
-        let (lb, rb) = (bounds_of(&left), bounds_of(&right));
-        Some((
-            Side {
-                refs: left,
-                bounds: lb,
-                room: left_room,
-            },
-            Side {
-                refs: right,
-                bounds: rb,
-                room: right_room,
-            },
-        ))
+        let bounds = [bounds_of(&left), bounds_of(&right)];
+        Some(sides(left, right, bounds, room.saturating_sub(repeats)))
     }
 }
 
@@ -526,11 +498,16 @@ fn area(b: &Aabb) -> f32 {
 /// The references split at `k` (already ordered), bounds computed.
 fn halves(mut refs: Vec<Piece>, k: usize, room: usize) -> (Side, Side) {
     let right = refs.split_off(k);
-    let (left_room, right_room) = share(room, refs.len(), right.len());
-    let (lb, rb) = (bounds_of(&refs), bounds_of(&right));
+    let bounds = [bounds_of(&refs), bounds_of(&right)];
+    sides(refs, right, bounds, room)
+}
+
+/// The two sides of a split, with `room` shared between them.
+fn sides(left: Vec<Piece>, right: Vec<Piece>, [lb, rb]: [Bounds; 2], room: usize) -> (Side, Side) {
+    let (left_room, right_room) = share(room, left.len(), right.len());
     (
         Side {
-            refs,
+            refs: left,
             bounds: lb,
             room: left_room,
         },
