@@ -8,11 +8,11 @@
 //! primitive: for triangles ([`Primitives::corners`]) the corners and edge
 //! crossings on each side, for other primitives the halves of the box.
 //! Each reference carries its triangle's corners through the build, so
-//! cutting never reads the mesh again (on a million-triangle soup half the
-//! cutting time was waiting for the mesh's vertices). The split with the lower SAH cost wins. Long thin triangles
-//! and soups, whose boxes overlap the most, gain the most.
+//! cutting never waits for the mesh's scattered vertices. The split with
+//! the lower SAH cost wins. Long thin triangles and soups, whose boxes
+//! overlap the most, gain the most.
 //!
-//! A primitive may so sit in several leaves. Each leaf box still encloses
+//! A primitive may thus sit in several leaves. Each leaf box still encloses
 //! the part of the primitive it holds, so traversal finds the closest hit
 //! as before (a repeat is only a second test of the same triangle); the
 //! queries that count crossings drop the repeats (`Bvh::has_repeats`).
