@@ -655,9 +655,13 @@ pub fn split_triangle_bounds(
         let s = side.intersection(half);
         (!s.is_empty()).then_some(s)
     };
-    if !tri.iter().all(|p| p.is_finite()) || !plane.is_finite() {
+    // The conservative answer: the triangle's whole box on both sides.
+    let whole = || {
         let tb = Aabb::from_points(tri);
-        return [keep(tb, &below_half), keep(tb, &above_half)];
+        [keep(tb, &below_half), keep(tb, &above_half)]
+    };
+    if !tri.iter().all(|p| p.is_finite()) || !plane.is_finite() {
+        return whole();
     }
     let (mut below, mut above) = (Aabb::EMPTY, Aabb::EMPTY);
     // A crossing is computed in `f32` with an error of a few units of
@@ -678,6 +682,11 @@ pub fn split_triangle_bounds(
         if (p[axis] < plane && q[axis] > plane) || (p[axis] > plane && q[axis] < plane) {
             let s = (plane - p[axis]) / (q[axis] - p[axis]);
             let x = p + (q - p) * s;
+            if !x.is_finite() {
+                // An edge longer than the largest float (`q - p`
+                // overflowed): no bound on the crossing, so none is cut.
+                return whole();
+            }
             let (lo, hi) = (x - margin, x + margin);
             below = below.grow(lo).grow(hi);
             above = above.grow(lo).grow(hi);
@@ -838,6 +847,66 @@ pub(crate) fn underflow_case() -> (Ray, [Vec3; 3], [Vec3; 3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Both sides' boxes of a cut enclose every point of the triangle on
+    /// their side (points on a lattice of barycentrics and the exact edge
+    /// crossings, in `f64`), for ordinary, tiny, huge and overflowing
+    /// triangles.
+    #[test]
+    fn split_bounds_enclose_both_parts() {
+        let mut next = crate::util::unit_sequence(3);
+        let mut cases: Vec<([Vec3; 3], usize, f32)> = Vec::new();
+        for k in 0..300 {
+            let size = [1.0f32, 1e-30, 1e30, 1e38][k % 4];
+            let mut v = || Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0 * size;
+            let tri = [v(), v(), v()];
+            let axis = k % 3;
+            let (lo, hi) = (
+                tri.iter().map(|p| p[axis]).fold(f32::INFINITY, f32::min),
+                tri.iter()
+                    .map(|p| p[axis])
+                    .fold(f32::NEG_INFINITY, f32::max),
+            );
+            cases.push((tri, axis, lo + (hi - lo) * next()));
+        }
+        // An edge whose difference overflows, cut just above a corner.
+        let p = Vec3::new(-3e38, 0.0, 0.0);
+        cases.push(([p, Vec3::new(3e38, 1e30, 0.0), Vec3::Z], 1, 1e-20));
+        for (tri, axis, plane) in cases {
+            let b = Aabb::from_points(tri);
+            let [below, above] = split_triangle_bounds(tri, &b, axis, plane);
+            let inside = |side: Option<Aabb>, x: DVec3| {
+                side.is_some_and(|s| {
+                    (0..3).all(|k| f64::from(s.min[k]) <= x[k] && x[k] <= f64::from(s.max[k]))
+                })
+            };
+            let [a, c, d] = tri.map(|p| p.as_dvec3());
+            let mut points = Vec::new();
+            for i in 0..=8 {
+                for j in 0..=8 - i {
+                    let (u, v) = (i as f64 / 8.0, j as f64 / 8.0);
+                    points.push(a + (c - a) * u + (d - a) * v);
+                }
+            }
+            let plane64 = f64::from(plane);
+            for (p, q) in [(a, c), (c, d), (d, a)] {
+                if (p[axis] - plane64) * (q[axis] - plane64) < 0.0 {
+                    let s = (plane64 - p[axis]) / (q[axis] - p[axis]);
+                    let mut x = p + (q - p) * s;
+                    x[axis] = plane64;
+                    points.push(x);
+                }
+            }
+            for x in points {
+                if x[axis] <= plane64 {
+                    assert!(inside(below, x), "{tri:?} {axis} {plane}: {x:?} below");
+                }
+                if x[axis] >= plane64 {
+                    assert!(inside(above, x), "{tri:?} {axis} {plane}: {x:?} above");
+                }
+            }
+        }
+    }
 
     fn ray(o: Vec3, d: Vec3) -> Ray {
         Ray::new(o, d, 0.0, f32::INFINITY)
