@@ -58,12 +58,8 @@ fn build_quality(kind: AccelKind, name: &str) -> PyResult<BuildQuality> {
     let quality: BuildQuality = name
         .parse()
         .map_err(|e| PyValueError::new_err(format!("quality: {e}")))?;
-    if quality == BuildQuality::High && !kind.has_high_quality() {
-        return Err(PyValueError::new_err(format!(
-            "quality: \"high\" builds spatial splits, which only bvh-wide and bvh-sah have, \
-             not {kind}"
-        )));
-    }
+    kind.check_quality(quality)
+        .map_err(|e| PyValueError::new_err(format!("quality: \"{quality}\" {e}")))?;
     Ok(quality)
 }
 

@@ -112,6 +112,18 @@ impl AccelKind {
         matches!(self, AccelKind::BvhSah | AccelKind::BvhWide)
     }
 
+    /// Checks that this kind can be built at `quality`; the error reads
+    /// after the caller's name for the quality ("--quality high builds
+    /// spatial splits, ...").
+    pub fn check_quality(self, quality: BuildQuality) -> Result<(), String> {
+        if quality == BuildQuality::High && !self.has_high_quality() {
+            return Err(format!(
+                "builds spatial splits, which only bvh-wide and bvh-sah have, not {self}"
+            ));
+        }
+        Ok(())
+    }
+
     /// The BVH builder this kind names, if it is a BVH.
     pub fn bvh_builder(self) -> Option<BvhBuilder> {
         match self {

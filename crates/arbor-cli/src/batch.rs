@@ -28,13 +28,8 @@ pub struct RunArgs {
     pub accel: Option<AccelKind>,
     /// Build quality of the ray structure: fast (default) or high (spatial
     /// splits: a slower build for faster tracing; bvh-wide and bvh-sah).
-    #[arg(long, value_name = "Q", default_value = "fast", value_parser = parse_quality)]
+    #[arg(long, value_name = "Q", default_value = "fast", value_parser = <BuildQuality as std::str::FromStr>::from_str)]
     pub quality: BuildQuality,
-}
-
-/// Parses `--quality`.
-fn parse_quality(name: &str) -> Result<BuildQuality, String> {
-    name.parse()
 }
 
 /// The structure a batch command builds: its kind and build quality.
@@ -52,13 +47,8 @@ impl RunArgs {
     /// removed on an interrupt.
     pub fn start(&self) -> anyhow::Result<(Structure, rayon::ThreadPool)> {
         let kind = self.accel.unwrap_or(AccelKind::DEFAULT);
-        if self.quality == BuildQuality::High && !kind.has_high_quality() {
-            return Err(InputError(format!(
-                "--quality high builds spatial splits, which only bvh-wide and bvh-sah have, \
-                 not {kind}"
-            ))
-            .into());
-        }
+        kind.check_quality(self.quality)
+            .map_err(|e| InputError(format!("--quality {} {e}", self.quality)))?;
         let pool = crate::thread_pool(self.threads.map(|n| n as usize))?;
         crate::output::remove_pending_on_interrupt();
         Ok((
