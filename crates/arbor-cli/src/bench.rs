@@ -25,7 +25,7 @@ use arbor::load::{Format, ObjRule};
 use arbor::scene::Scene;
 use arbor::tracer::{SplitCounters, Tracer, TracerOptions};
 use arbor_accel::{
-    AccelKind, AccelStats, Accelerator, MeshAccel, NoCounters, Ray, RayCounts, Vec3,
+    AccelKind, AccelStats, Accelerator, BuildQuality, MeshAccel, NoCounters, Ray, RayCounts, Vec3,
 };
 use clap::Args;
 use glam::DVec3;
@@ -76,6 +76,10 @@ pub struct BenchArgs {
     /// Timed passes per ray kind; the fastest counts.
     #[arg(long, value_name = "K", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeat: u32,
+    /// Build quality for a mesh: fast (default) or high (spatial splits;
+    /// only bvh-wide and bvh-sah have it, and `all` then means those two).
+    #[arg(long, value_name = "Q", default_value = "fast", value_parser = <BuildQuality as std::str::FromStr>::from_str)]
+    pub quality: BuildQuality,
 }
 
 /// The kinds of rays benched.
@@ -165,6 +169,8 @@ pub struct Report {
     pub primitives: usize,
     /// Worker threads.
     pub threads: usize,
+    /// How carefully the structures were built.
+    pub quality: BuildQuality,
     /// One entry per structure.
     pub results: Vec<AccelResult>,
 }
@@ -573,7 +579,7 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
 /// Runs `arbor bench`.
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     // Everything the user can get wrong is checked before the slow part.
-    let accels = crate::accel_arg::expand(&args.accel);
+    let accels = structures(&args.accel, args.quality)?;
     let kinds = parse_rays(args.rays.as_deref())?;
     if let Some(p) = &args.plot {
         crate::output::check_writable(p, "--plot")?;
@@ -582,14 +588,27 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         crate::output::check_writable(p, "--json")?;
     }
+    let scene = matches!(
+        Format::from_path(&args.input),
+        Ok(Format::Xml | Format::Gltf | Format::Glb)
+    );
+    if scene && args.quality != BuildQuality::Fast {
+        return Err(InputError(format!(
+            "--quality {}: a scene is benched through the renderer's tracer, which builds \
+             fast structures only; --quality is for meshes",
+            args.quality
+        ))
+        .into());
+    }
     let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
     let input = load_input(&args.input)?;
     let report = pool.install(|| -> anyhow::Result<Report> {
         let results = match &input {
             Input::Mesh(m) => bench_with(m, &accels, &kinds, &args, |k| {
                 let (vertices, triangles) = (m.vertices.clone(), m.triangles.clone());
+                let params = MeshAccel::params(k).with_quality(args.quality);
                 let start = Instant::now();
-                let mesh = MeshAccel::build(vertices, triangles, k)
+                let mesh = MeshAccel::build_with(vertices, triangles, k, &params)
                     .map_err(|e| InputError(format!("{}: {e}", args.input.display())))?;
                 Ok((mesh, ms_since(start)))
             })?,
@@ -610,6 +629,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             input: args.input.display().to_string(),
             primitives,
             threads: rayon::current_num_threads(),
+            quality: args.quality,
             results,
         })
     })?;
@@ -622,6 +642,29 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         plot::draw(&report, path).with_context(|| format!("drawing {}", path.display()))?;
     }
     Ok(())
+}
+
+/// The structures `--accel` names at build quality `quality`: at high
+/// quality `all` means the kinds that have it, and a kind named that has
+/// not is an error.
+fn structures(
+    choices: &[AccelChoice],
+    quality: BuildQuality,
+) -> Result<Vec<AccelKind>, InputError> {
+    let mut kinds = Vec::new();
+    for choice in choices {
+        for k in crate::accel_arg::expand(std::slice::from_ref(choice)) {
+            let named = matches!(choice, AccelChoice::One(_));
+            if named {
+                k.check_quality(quality)
+                    .map_err(|e| InputError(format!("--quality {quality} {e}")))?;
+            }
+            if (named || k.check_quality(quality).is_ok()) && !kinds.contains(&k) {
+                kinds.push(k);
+            }
+        }
+    }
+    Ok(kinds)
 }
 
 /// Builds each structure with `build` (which returns it with its build time
@@ -663,8 +706,8 @@ pub fn markdown(report: &Report) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{}: {} primitives, {} threads",
-        report.input, report.primitives, report.threads
+        "{}: {} primitives, {} threads, {} builds",
+        report.input, report.primitives, report.threads, report.quality
     );
     if let Some(first) = report.results.first() {
         let counts: Vec<String> = first
@@ -764,6 +807,7 @@ pub fn json(report: &Report) -> String {
         "input": report.input,
         "primitives": report.primitives,
         "threads": report.threads,
+        "quality": report.quality.name(),
         "results": results,
     });
     serde_json::to_string_pretty(&doc).expect("a JSON value always serialises") + "\n"
@@ -806,6 +850,7 @@ mod tests {
             input: "a\"b\\c\n.obj".into(),
             primitives: 12,
             threads: 3,
+            quality: BuildQuality::High,
             results: vec![AccelResult {
                 accel: AccelKind::Grid,
                 build_ms: 1.5,

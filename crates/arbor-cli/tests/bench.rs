@@ -196,9 +196,43 @@ fn ray_kinds_and_plots() {
     assert!(non_white > 5000, "{non_white}");
 }
 
+/// `--quality high` builds the two kinds that have spatial splits (all
+/// that `all` then means) and says so; the rays, and so the traversal
+/// counts' meaning, stay those of the fast builds.
+#[test]
+fn high_quality_bench_builds_the_kinds_that_have_it() {
+    let dir = ball_folder(24, 32, None);
+    let cmd = "bench ball.obj --rays diffuse --size 32 --repeat 1 --json h.json --quality high";
+    let out = run(dir.path(), cmd);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("high builds"));
+    let doc: Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("h.json")).unwrap()).unwrap();
+    assert_eq!(doc["quality"], "high");
+    let names: Vec<&str> = doc["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["accel"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["bvh-sah", "bvh-wide"]);
+    let out = run(
+        dir.path(),
+        "bench ball.obj --accel bvh-sah --rays diffuse --size 32 --repeat 1 --json f.json",
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let fast: Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("f.json")).unwrap()).unwrap();
+    assert_eq!(fast["quality"], "fast");
+    assert_eq!(
+        fast["results"][0]["rays"]["diffuse"]["rays"],
+        doc["results"][0]["rays"]["diffuse"]["rays"]
+    );
+}
+
 #[test]
 fn bad_input_exits_2_and_writes_nothing() {
-    let dir = ball_folder(4, 6, None);
+    let dir = ball_folder(4, 6, Some((8, 6)));
     fs::write(dir.path().join("bad.obj"), "v 0 0 0\nf 1 2 oops\n").unwrap();
     let cases: &[&[&str]] = &[
         &["bench", "ball.obj", "--accel", "octree", "--json", "o.json"],
@@ -212,6 +246,28 @@ fn bad_input_exits_2_and_writes_nothing() {
         &["bench", "ball.obj", "--threads", "0", "--json", "o.json"],
         &["bench", "ball.obj", "--size", "0", "--json", "o.json"],
         &["bench", "ball.txt", "--json", "o.json"],
+        &["bench", "ball.obj", "--quality", "best", "--json", "o.json"],
+        &[
+            "bench",
+            "ball.obj",
+            "--quality",
+            "high",
+            "--accel",
+            "grid",
+            "--json",
+            "o.json",
+        ],
+        &[
+            "bench",
+            "ball.obj",
+            "--quality",
+            "high",
+            "--accel",
+            "all,kdtree",
+            "--json",
+            "o.json",
+        ],
+        &["bench", "s.xml", "--quality", "high", "--json", "o.json"],
     ];
     for args in cases {
         let out = arbor(dir.path(), args);
