@@ -24,15 +24,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-30}
 seed=1
-targets=(xml msh obj ply stl gltf accel)
+targets=(xml msh obj ply stl gltf accel accel_spatial)
 # Runs per target: about 20 seconds each at the executions per second
 # measured on the development machine (-O -a build, 11-18 s there; accel
 # 15,000 since its check also builds and traces TriangleBvh and checks every
 # ray twice, as decoded and looking behind its origin: 12 s from the
 # committed corpus alone, as CI starts; a local corpus grown by long runs
-# adds its own replay first).
+# adds its own replay first; accel_spatial 1,000, about 17 s: each input
+# makes eight builds with spatial splits over a crowd of about a hundred
+# triangles).
 declare -A runs=([xml]=400000 [msh]=1200000 [obj]=500000 [ply]=450000
-  [stl]=800000 [gltf]=120000 [accel]=15000)
+  [stl]=800000 [gltf]=120000 [accel]=15000 [accel_spatial]=1000)
 export RUSTC_BOOTSTRAP=1
 
 # libfuzzer-sys compiles libFuzzer, which is C++.

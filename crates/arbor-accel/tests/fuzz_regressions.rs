@@ -184,3 +184,32 @@ fn subnormal_direction_components() {
         assert_eq!(closest(&a, &mesh, &ray), expected, "{kind}");
     }
 }
+
+#[path = "../../../fuzz/spatial_check.rs"]
+mod spatial_check;
+
+/// Every committed input of the spatial-split fuzz target
+/// (`fuzz/corpus/accel_spatial/`) answers like brute force, and the crowds
+/// they decode to do make the builds cut triangles (a target whose inputs
+/// never took a spatial split would check nothing of them).
+#[test]
+fn spatial_split_fuzz_corpus_answers_like_brute_force() {
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../fuzz/corpus/accel_spatial"
+    );
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .expect("the spatial-split corpus")
+        .map(|e| e.expect("directory entry").path())
+        .collect();
+    files.sort();
+    let checked: Vec<_> = files
+        .iter()
+        .map(|f| spatial_check::check(&std::fs::read(f).expect("read a corpus input")))
+        .collect();
+    assert!(
+        checked.iter().any(|c| c.split),
+        "no input took a spatial split: {files:?}"
+    );
+    assert!(checked.iter().all(|c| c.rays > 0), "{checked:?}");
+}
