@@ -145,6 +145,12 @@ impl RayViews<'_> {
         let rows = origins[flat.clone()]
             .chunks_exact(3)
             .zip(directions[flat].chunks_exact(3));
+        // The usual call gives one `tmin` and one `tmax` for every ray: a
+        // loop of its own, without the per-ray look at which kind they are.
+        if let (ScalarView::Same(tmin), ScalarView::Same(tmax)) = (self.tmin, self.tmax) {
+            rays.extend(rows.map(|(o, d)| Ray::new(origin(o), direction(d), tmin, tmax)));
+            return;
+        }
         rays.extend(rows.zip(range).map(|((o, d), i)| {
             Ray::new(origin(o), direction(d), self.tmin.get(i), self.tmax.get(i))
         }));
