@@ -352,13 +352,16 @@ pub fn closest_into(
                 hits.clear();
                 hits.resize(rays.len(), None);
                 mesh.closest_batch_into(rays, hits);
+                // Each column cut to the chunk's length, so that the writes
+                // below need no bounds checks (six per ray otherwise).
+                let n = rays.len();
                 let mut chunk = HitSlots {
-                    t,
-                    triangle,
-                    u,
-                    v,
-                    point,
-                    normal,
+                    t: &mut t[..n],
+                    triangle: &mut triangle[..n],
+                    u: &mut u[..n],
+                    v: &mut v[..n],
+                    point: &mut point[..n],
+                    normal: &mut normal[..n],
                 };
                 for (i, (ray, hit)) in rays.iter().zip(hits.iter()).enumerate() {
                     chunk.write(i, normals, ray, hit.as_ref());
