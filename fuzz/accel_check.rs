@@ -64,7 +64,22 @@ pub fn check(data: &[u8]) -> usize {
         .map(|&k| Accel::build(k, &mesh))
         .collect();
     let mut checked = 0;
-    for r in floats(rays).chunks_exact(8) {
+    for ray in ray_pairs(rays).flatten().flatten() {
+        check_ray(&mesh, &list, &built, &packed, &ray);
+        checked += 1;
+    }
+    checked
+}
+
+/// The rays of `bytes`, one per 32 bytes: `None` for one whose origin or
+/// direction is not finite, otherwise the ray as decoded and the same ray
+/// looking behind its origin as far as ahead (`tmin < 0`: the structures'
+/// slow path, where a box's exit behind the origin must be widened by its
+/// sign).
+pub fn ray_pairs(bytes: &[u8]) -> impl Iterator<Item = Option<[Ray; 2]>> {
+    let values = floats(bytes);
+    (0..values.len() / 8).map(move |i| {
+        let r = &values[8 * i..8 * i + 8];
         let ray = Ray::new(
             Vec3::new(r[0], r[1], r[2]),
             Vec3::new(r[3], r[4], r[5]),
@@ -72,21 +87,14 @@ pub fn check(data: &[u8]) -> usize {
             r[7].abs().max(1.0),
         );
         if !ray.origin.is_finite() || !ray.dir.is_finite() {
-            continue;
+            return None;
         }
-        // Each ray as decoded, then looking behind its origin as far as
-        // ahead (`tmin < 0`: the structures' slow path, where a box's exit
-        // behind the origin must be widened by its sign).
         let behind = Ray {
             tmin: -ray.tmax,
             ..ray
         };
-        for ray in [ray, behind] {
-            check_ray(&mesh, &list, &built, &packed, &ray);
-            checked += 1;
-        }
-    }
-    checked
+        Some([ray, behind])
+    })
 }
 
 /// Asserts that every structure answers `ray`'s closest-hit and occlusion

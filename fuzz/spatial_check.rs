@@ -19,7 +19,7 @@ use arbor_accel::{
 };
 
 // The includer also includes `accel_check.rs` as `accel_check`, at its root.
-use crate::accel_check::{closest, floats};
+use crate::accel_check::{closest, floats, ray_pairs};
 
 /// Triangles in the crowd, at least (spatial splits start at 64
 /// references per node).
@@ -32,7 +32,8 @@ const SCALES: [f32; 4] = [1.0, 0.5, 0.25, 2.0];
 /// high-quality default allows a tenth).
 const GENEROUS: f32 = 1.0;
 
-/// Rays checked per input, at most (each also looking behind its origin).
+/// Ray records read per input, at most (each ray also checked looking
+/// behind its origin).
 const MAX_RAYS: usize = 16;
 
 /// What one input exercised.
@@ -143,24 +144,9 @@ pub fn check(data: &[u8]) -> Checked {
     let split =
         built.iter().any(Accel::offers_repeats) || meshes.iter().any(|m| m.offers_repeats());
     let mut checked = Checked { rays: 0, split };
-    for r in floats(rays).chunks_exact(8).take(MAX_RAYS) {
-        let ray = Ray::new(
-            Vec3::new(r[0], r[1], r[2]),
-            Vec3::new(r[3], r[4], r[5]),
-            r[6].abs().min(1.0),
-            r[7].abs().max(1.0),
-        );
-        if !ray.origin.is_finite() || !ray.dir.is_finite() {
-            continue;
-        }
-        let behind = Ray {
-            tmin: -ray.tmax,
-            ..ray
-        };
-        for ray in [ray, behind] {
-            check_ray(&mesh, &list, &brute, &kinds, &built, &meshes, &ray);
-            checked.rays += 1;
-        }
+    for ray in ray_pairs(rays).take(MAX_RAYS).flatten().flatten() {
+        check_ray(&mesh, &list, &brute, &kinds, &built, &meshes, &ray);
+        checked.rays += 1;
     }
     checked
 }
