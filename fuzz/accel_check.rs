@@ -107,17 +107,29 @@ fn check_ray(mesh: &TriangleMesh, list: &Accel, built: &[Accel], packed: &MeshAc
         assert_eq!(closest(a, mesh, ray), expected, "{kind} {ray:?}");
         assert_eq!(a.occluded(ray, &mut NoCounters, test), occluded, "{kind}");
     }
-    // Of tied triangles it keeps the first offered: the same distance,
-    // on a triangle that the scalar test hits there.
-    let got = packed.closest(ray);
+    assert_mesh_closest(mesh, packed, ray, expected, "packed");
+    assert_eq!(packed.occluded(ray), occluded, "packed");
+}
+
+/// Asserts that `m`'s closest hit on `ray` is brute force's `expected`
+/// (`(t, triangle)`, ties to the lower index): of tied triangles a mesh
+/// query keeps the first offered, so the same distance, on a triangle that
+/// the scalar test hits there.
+pub fn assert_mesh_closest(
+    mesh: &TriangleMesh,
+    m: &MeshAccel,
+    ray: &Ray,
+    expected: Option<(f32, u32)>,
+    what: &str,
+) {
+    let got = m.closest(ray);
     assert_eq!(
         got.map(|h| h.hit.t),
         expected.map(|e| e.0),
-        "packed {ray:?}"
+        "{what} {ray:?}"
     );
     if let Some(h) = got {
         let own = mesh.intersect(h.prim, ray).map(|x| x.t);
-        assert_eq!(own, Some(h.hit.t), "packed {ray:?}");
+        assert_eq!(own, Some(h.hit.t), "{what} {ray:?}");
     }
-    assert_eq!(packed.occluded(ray), occluded, "packed");
 }

@@ -19,7 +19,7 @@ use arbor_accel::{
 };
 
 // The includer also includes `accel_check.rs` as `accel_check`, at its root.
-use crate::accel_check::{closest, floats, ray_pairs};
+use crate::accel_check::{assert_mesh_closest, closest, floats, ray_pairs};
 
 /// Triangles in the crowd, at least (spatial splits start at 64
 /// references per node).
@@ -173,17 +173,7 @@ fn check_ray(
             occluded,
             "{kind} high"
         );
-        // Of tied triangles a mesh query keeps the first offered: the same
-        // distance, on a triangle that the scalar test hits there.
-        let got = m.closest(ray);
-        assert_eq!(
-            got.map(|h| h.hit.t),
-            expected.map(|e| e.0),
-            "{kind} high mesh {ray:?}"
-        );
-        if let Some(h) = got {
-            assert_eq!(mesh.intersect(h.prim, ray).map(|x| x.t), Some(h.hit.t));
-        }
+        assert_mesh_closest(mesh, m, ray, expected, &format!("{kind} high mesh"));
         assert_eq!(m.occluded(ray), occluded, "{kind} high mesh");
         assert_eq!(m.count(ray), count, "{kind} high mesh count {ray:?}");
         assert_eq!(m.all_hits(ray), hits, "{kind} high mesh all hits {ray:?}");
