@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::byte_table::ByteTable;
 use crate::scene::Variant;
 
 /// A width x height grid of linear RGB radiance, row 0 at the top.
@@ -57,15 +58,16 @@ impl Film {
 
     /// 8-bit RGB bytes, row 0 at the top, by the variant's conversion.
     pub fn to_rgb8(&self, variant: Variant) -> Vec<u8> {
-        // In parallel: three `powf` per pixel are a visible part of a
-        // quick render's whole time.
+        // In parallel, and by table: three `powf` per pixel were a visible
+        // part of a quick render's whole time.
+        let table = ByteTable::of(variant);
         let mut bytes = vec![0u8; self.pixels.len() * 3];
         bytes
             .par_chunks_mut(3 * 4096)
             .zip(self.pixels.par_chunks(4096))
             .for_each(|(out, pixels)| {
                 for (o, p) in out.chunks_exact_mut(3).zip(pixels) {
-                    o.copy_from_slice(&[p.x, p.y, p.z].map(|c| to_byte(c, variant)));
+                    o.copy_from_slice(&[p.x, p.y, p.z].map(|c| table.byte(c)));
                 }
             });
         bytes

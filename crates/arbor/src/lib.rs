@@ -26,6 +26,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod byte_table;
 pub mod camera;
 pub mod compare;
 pub mod default_scene;
