@@ -62,7 +62,7 @@ impl ByteTable {
         // The steps describe the non-negative radiances only (a negative
         // base of the power is NaN, or +inf for -inf): the rest, and NaN,
         // take the conversion itself.
-        if !(c >= 0.0) {
+        if c.is_nan() || c < 0.0 {
             return to_byte(c, self.variant);
         }
         // Branch-free binary search: `at` is the largest index whose step
