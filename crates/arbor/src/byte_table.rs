@@ -1,30 +1,51 @@
-//! The spec's colour-to-byte conversion ([`to_byte`]) as a table of the 255
-//! radiances where the byte steps up, so a picture's bytes cost a short
-//! search per channel instead of a `powf` and a `floor`.
+//! The spec's colour-to-byte conversion ([`to_byte`]) as tables, so a
+//! picture's bytes cost a lookup and one comparison per channel instead of
+//! a `powf` and a `floor`.
 //!
 //! Why it gives the same bytes: [`to_byte`] is non-decreasing in the
 //! radiance (a power with a positive exponent, a clamp and a rounding, each
-//! monotone), so the byte of `c` is the number of steps at or below `c`. The
-//! steps are found by bisection on [`to_byte`] itself, over the bit patterns
-//! of the non-negative `f64`s (which order as the numbers do): each is the
-//! smallest radiance whose byte reaches that step. Negative radiances and
-//! NaN go to [`to_byte`] itself. The tests compare both
-//! functions around every step and on random radiances.
+//! monotone), so it is described by its 255 *steps*, the smallest radiance
+//! of each byte, found by bisection on [`to_byte`] itself over the bit
+//! patterns of the non-negative `f64`s (which order as the numbers do).
+//! Radiances in `[2^-21, 1)` are cut into buckets by their exponent and top
+//! 8 mantissa bits; a bucket spans less than half a byte, so it holds at
+//! most one step (checked as the tables are made), and the byte is the
+//! bucket's first byte, plus one from that step on. Below `2^-21` (under
+//! the first step) the byte is 0, from 1 on it is 255; negative radiances
+//! and NaN go to [`to_byte`] itself. The tests compare both functions
+//! around every step and on random radiances.
 
 use std::sync::OnceLock;
 
 use crate::film::to_byte;
 use crate::scene::Variant;
 
-/// For each byte `b` in `1..=255`, at index `b`, the smallest radiance that
-/// [`to_byte`] turns into `b` or more; index 0 is unused.
+/// The smallest radiance with a bucket, `2^-21`.
+const LOW: f64 = 1.0 / (1u64 << 21) as f64;
+/// Mantissa bits that pick a bucket within an octave.
+const BUCKET_BITS: u32 = 8;
+/// Buckets over `[LOW, 1)`: 21 octaves of `2^BUCKET_BITS`.
+const BUCKETS: usize = 21 << BUCKET_BITS;
+
+/// The bucket of a radiance in `[LOW, 1)`.
+#[inline]
+fn bucket(c: f64) -> usize {
+    let shift = 52 - BUCKET_BITS;
+    ((c.to_bits() >> shift) - (LOW.to_bits() >> shift)) as usize
+}
+
+/// One variant's conversion: its steps and its buckets' first bytes.
 pub struct ByteTable {
-    steps: [f64; 256],
+    /// At index `b` in `1..=255`, the smallest radiance that [`to_byte`]
+    /// turns into `b` or more; index 0 unused, index 256 +inf.
+    steps: [f64; 257],
+    /// Per bucket, the byte of its smallest radiance.
+    first: Box<[u8; BUCKETS]>,
     variant: Variant,
 }
 
 impl ByteTable {
-    /// The table of `variant`'s conversion, computed once per process.
+    /// The tables of `variant`'s conversion, made once per process.
     pub fn of(variant: Variant) -> &'static ByteTable {
         static C2010: OnceLock<ByteTable> = OnceLock::new();
         static C2015: OnceLock<ByteTable> = OnceLock::new();
@@ -36,10 +57,10 @@ impl ByteTable {
     }
 
     fn new(variant: Variant) -> ByteTable {
-        let mut steps = [f64::INFINITY; 256];
+        let mut steps = [f64::INFINITY; 257];
         let one = 1.0f64.to_bits();
-        debug_assert_eq!(to_byte(1.0, variant), 255);
-        for (b, step) in steps.iter_mut().enumerate().skip(1) {
+        assert_eq!(to_byte(1.0, variant), 255);
+        for (b, step) in steps.iter_mut().enumerate().take(256).skip(1) {
             // Invariant: to_byte(lo) < b <= to_byte(hi).
             let (mut lo, mut hi) = (0u64, one);
             while hi - lo > 1 {
@@ -52,28 +73,39 @@ impl ByteTable {
             }
             *step = f64::from_bits(hi);
         }
-        ByteTable { steps, variant }
+        assert!(steps[1] > LOW, "the first step lies below the buckets");
+        let mut first = Box::new([0u8; BUCKETS]);
+        let shift = 52 - BUCKET_BITS;
+        for (k, byte) in first.iter_mut().enumerate() {
+            let start = f64::from_bits(((LOW.to_bits() >> shift) + k as u64) << shift);
+            let end = f64::from_bits(((LOW.to_bits() >> shift) + k as u64 + 1) << shift);
+            let b = steps[1..256].iter().take_while(|&&s| s <= start).count();
+            let next_but_one = steps.get(b + 2).copied().unwrap_or(f64::INFINITY);
+            assert!(next_but_one >= end, "two steps in the bucket of {start:e}");
+            *byte = b as u8;
+        }
+        ByteTable {
+            steps,
+            first,
+            variant,
+        }
     }
 
-    /// [`to_byte`]`(c, variant)` for this table's variant: the number of
-    /// steps at or below `c`.
+    /// [`to_byte`]`(c, variant)` for this table's variant.
     #[inline]
     pub fn byte(&self, c: f64) -> u8 {
-        // The steps describe the non-negative radiances only (a negative
-        // base of the power is NaN, or +inf for -inf): the rest, and NaN,
-        // take the conversion itself.
-        if c.is_nan() || c < 0.0 {
-            return to_byte(c, self.variant);
+        if (LOW..1.0).contains(&c) {
+            let b = self.first[bucket(c)];
+            return b + u8::from(c >= self.steps[usize::from(b) + 1]);
         }
-        // Branch-free binary search: `at` is the largest index whose step
-        // is <= c, every step from 1 to `at` is too.
-        let mut at = 0usize;
-        for half in [128, 64, 32, 16, 8, 4, 2, 1] {
-            if self.steps[at + half] <= c {
-                at += half;
-            }
+        if c >= 1.0 {
+            255
+        } else if c >= 0.0 {
+            0
+        } else {
+            // Negative (the power's base: NaN, or +inf for -inf) or NaN.
+            to_byte(c, self.variant)
         }
-        at as u8
     }
 }
 
