@@ -17,7 +17,10 @@ use crate::scene::Variant;
 pub struct Film {
     width: u32,
     height: u32,
-    pixels: Vec<DVec3>,
+    /// As arrays rather than `DVec3`s: a zero array is all zero bytes, so
+    /// a new film is allocated zeroed (its pages are touched where tiles
+    /// land, in parallel) instead of written pixel by pixel up front.
+    pixels: Vec<[f64; 3]>,
 }
 
 impl Film {
@@ -26,7 +29,7 @@ impl Film {
         Film {
             width,
             height,
-            pixels: vec![DVec3::ZERO; width as usize * height as usize],
+            pixels: vec![[0.0; 3]; width as usize * height as usize],
         }
     }
 
@@ -42,18 +45,23 @@ impl Film {
 
     /// The radiance at `(x, y)`.
     pub fn get(&self, x: u32, y: u32) -> DVec3 {
-        self.pixels[(y * self.width + x) as usize]
+        DVec3::from_array(self.pixels[(y * self.width + x) as usize])
     }
 
     /// Sets the radiance at `(x, y)`.
     pub fn set(&mut self, x: u32, y: u32, value: DVec3) {
-        self.pixels[(y * self.width + x) as usize] = value;
+        self.pixels[(y * self.width + x) as usize] = value.to_array();
     }
 
     /// Sets the radiance of `values.len()` pixels of row `y` from column `x` on.
     pub fn set_row(&mut self, x: u32, y: u32, values: &[DVec3]) {
         let start = (y * self.width + x) as usize;
-        self.pixels[start..start + values.len()].copy_from_slice(values);
+        for (p, v) in self.pixels[start..start + values.len()]
+            .iter_mut()
+            .zip(values)
+        {
+            *p = v.to_array();
+        }
     }
 
     /// 8-bit RGB bytes, row 0 at the top, by the variant's conversion.
@@ -67,7 +75,7 @@ impl Film {
             .zip(self.pixels.par_chunks(4096))
             .for_each(|(out, pixels)| {
                 for (o, p) in out.chunks_exact_mut(3).zip(pixels) {
-                    o.copy_from_slice(&[p.x, p.y, p.z].map(|c| table.byte(c)));
+                    o.copy_from_slice(&p.map(|c| table.byte(c)));
                 }
             });
         bytes
@@ -101,8 +109,8 @@ impl Film {
         let image = Image::from_channels(
             (w, h),
             SpecificChannels::rgb(|p: Vec2<usize>| {
-                let c = pixels[p.y() * w + p.x()];
-                (c.x as f32, c.y as f32, c.z as f32)
+                let [r, g, b] = pixels[p.y() * w + p.x()];
+                (r as f32, g as f32, b as f32)
             }),
         );
         image
