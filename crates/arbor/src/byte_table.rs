@@ -76,10 +76,14 @@ impl ByteTable {
         assert!(steps[1] > LOW, "the first step lies below the buckets");
         let mut first = Box::new([0u8; BUCKETS]);
         let shift = 52 - BUCKET_BITS;
+        // Buckets in increasing order: `b` only grows.
+        let mut b = 0;
         for (k, byte) in first.iter_mut().enumerate() {
             let start = f64::from_bits(((LOW.to_bits() >> shift) + k as u64) << shift);
             let end = f64::from_bits(((LOW.to_bits() >> shift) + k as u64 + 1) << shift);
-            let b = steps[1..256].iter().take_while(|&&s| s <= start).count();
+            while steps[b + 1] <= start {
+                b += 1;
+            }
             let next_but_one = steps.get(b + 2).copied().unwrap_or(f64::INFINITY);
             assert!(next_but_one >= end, "two steps in the bucket of {start:e}");
             *byte = b as u8;
