@@ -186,6 +186,7 @@ impl FlatGeometry {
     /// they would poison every box above them.
     fn finish(&mut self) {
         let bounds: Vec<_> = (0..self.primitives.len())
+            .into_par_iter()
             .map(|i| self.primitive_bounds(i))
             .collect();
         let finite = |b: &(DVec3, DVec3)| b.0.is_finite() && b.1.is_finite();
@@ -401,16 +402,15 @@ impl FlatGeometry {
 
     fn push_mesh(&mut self, mesh: FlatMesh) {
         let index = self.meshes.len() as u32;
-        for (i, _) in mesh.triangles.iter().enumerate() {
-            self.primitives.push(Primitive {
+        self.primitives
+            .extend((0..mesh.triangles.len() as u32).map(|i| Primitive {
                 shape: Shape::Triangle {
                     mesh: index,
-                    index: i as u32,
+                    index: i,
                 },
                 transform: mesh.transform,
                 shader: mesh.shader,
-            });
-        }
+            }));
         self.meshes.push(mesh);
     }
 
