@@ -12,6 +12,7 @@ mod bench;
 mod compare;
 mod explain;
 mod farm;
+mod huge_pages;
 mod info;
 mod merge;
 mod output;
@@ -20,6 +21,9 @@ mod points;
 mod preview_signal;
 mod render;
 mod trace;
+
+#[global_allocator]
+static ALLOCATOR: huge_pages::HugePageAlloc = huge_pages::HugePageAlloc;
 
 /// arbor: a ray tracer built around transformations and acceleration structures.
 #[derive(Parser, Debug)]
