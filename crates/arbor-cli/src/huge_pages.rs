@@ -94,6 +94,26 @@ unsafe impl GlobalAlloc for HugePageAlloc {
 
 #[cfg(test)]
 mod tests {
+    /// The `VmFlags` line of the mapping in `/proc/self/smaps` that holds
+    /// address `at`.
+    #[cfg(target_os = "linux")]
+    fn vm_flags_of(at: usize) -> Option<String> {
+        let smaps = std::fs::read_to_string("/proc/self/smaps").ok()?;
+        let range = |line: &str| {
+            let (lo, hi) = line.split_once(' ')?.0.split_once('-')?;
+            Some(usize::from_str_radix(lo, 16).ok()?..usize::from_str_radix(hi, 16).ok()?)
+        };
+        let mut inside = false;
+        for line in smaps.lines() {
+            if let Some(r) = range(line) {
+                inside = r.contains(&at);
+            } else if let Some(flags) = line.strip_prefix("VmFlags:").filter(|_| inside) {
+                return Some(flags.to_string());
+            }
+        }
+        None
+    }
+
     /// The block of a large vector is advised: its mapping in
     /// `/proc/self/smaps` carries the `hg` flag (where the kernel has
     /// transparent huge pages at all); its contents survive growth.
@@ -105,27 +125,7 @@ mod tests {
         #[cfg(target_os = "linux")]
         if std::path::Path::new("/sys/kernel/mm/transparent_hugepage/enabled").exists() {
             let at = v.as_ptr() as usize + v.capacity() * 8 / 2;
-            let smaps = std::fs::read_to_string("/proc/self/smaps").unwrap();
-            let mut flags = None;
-            let mut inside = false;
-            for line in smaps.lines() {
-                if let Some((range, _)) = line.split_once(' ') {
-                    if let Some((lo, hi)) = range.split_once('-') {
-                        if let (Ok(lo), Ok(hi)) =
-                            (usize::from_str_radix(lo, 16), usize::from_str_radix(hi, 16))
-                        {
-                            inside = (lo..hi).contains(&at);
-                            continue;
-                        }
-                    }
-                }
-                if inside {
-                    if let Some(f) = line.strip_prefix("VmFlags:") {
-                        flags = Some(f.to_string());
-                    }
-                }
-            }
-            let flags = flags.expect("the vector's mapping is in smaps");
+            let flags = vm_flags_of(at).expect("the vector's mapping is in smaps");
             assert!(
                 flags.split_whitespace().any(|f| f == "hg"),
                 "flags: {flags}"

@@ -27,11 +27,18 @@ const BUCKET_BITS: u32 = 8;
 /// Buckets over `[LOW, 1)`: 21 octaves of `2^BUCKET_BITS`.
 const BUCKETS: usize = 21 << BUCKET_BITS;
 
+/// Low bits of an `f64` below a bucket's exponent and mantissa bits.
+const SHIFT: u32 = 52 - BUCKET_BITS;
+
 /// The bucket of a radiance in `[LOW, 1)`.
 #[inline]
 fn bucket(c: f64) -> usize {
-    let shift = 52 - BUCKET_BITS;
-    ((c.to_bits() >> shift) - (LOW.to_bits() >> shift)) as usize
+    ((c.to_bits() >> SHIFT) - (LOW.to_bits() >> SHIFT)) as usize
+}
+
+/// The smallest radiance of bucket `k` (`k == BUCKETS` gives 1).
+fn bucket_start(k: usize) -> f64 {
+    f64::from_bits(((LOW.to_bits() >> SHIFT) + k as u64) << SHIFT)
 }
 
 /// One variant's conversion: its steps and its buckets' first bytes.
@@ -75,12 +82,10 @@ impl ByteTable {
         }
         assert!(steps[1] > LOW, "the first step lies below the buckets");
         let mut first = Box::new([0u8; BUCKETS]);
-        let shift = 52 - BUCKET_BITS;
         // Buckets in increasing order: `b` only grows.
         let mut b = 0;
         for (k, byte) in first.iter_mut().enumerate() {
-            let start = f64::from_bits(((LOW.to_bits() >> shift) + k as u64) << shift);
-            let end = f64::from_bits(((LOW.to_bits() >> shift) + k as u64 + 1) << shift);
+            let (start, end) = (bucket_start(k), bucket_start(k + 1));
             while steps[b + 1] <= start {
                 b += 1;
             }
