@@ -921,13 +921,7 @@ mod tests {
     /// it does fire for rays leaving a surface by the usual offsets.
     #[test]
     fn behind_filter_is_sound_and_useful() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rnd = crate::util::unit_sequence(0x2545_f491_4f6c_dd1d);
         let (mut fired, mut sure_behind) = (0, 0);
         for i in 0..200_000 {
             let mut v = || Vec3::new(rnd(), rnd(), rnd()) * 2.0 - 1.0;

@@ -1,7 +1,30 @@
 //! The `--accel` value of every subcommand: one parser, so every command
-//! accepts the same names and reports a wrong one the same way.
+//! accepts the same names and reports a wrong one the same way; and the
+//! `--quality` option of the commands that build mesh structures.
 
-use arbor_accel::{AccelKind, UnknownAccel};
+use arbor_accel::{AccelKind, BuildQuality, UnknownAccel};
+
+use crate::InputError;
+
+/// `--quality` of `trace`, `inside`, `nearest` and `bench`: one definition,
+/// so the option reads and fails the same way in each.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct QualityArg {
+    /// Build quality of the ray structure: fast (default) or high (spatial
+    /// splits: a slower build for faster tracing; only bvh-wide and bvh-sah
+    /// have it, and `bench --accel all` then means those two).
+    #[arg(long, value_name = "Q", default_value = "fast", value_parser = <BuildQuality as std::str::FromStr>::from_str)]
+    pub quality: BuildQuality,
+}
+
+impl QualityArg {
+    /// Whether `kind` can be built at this quality; the error is the
+    /// command's one-line input error.
+    pub fn check(&self, kind: AccelKind) -> Result<(), InputError> {
+        kind.check_quality(self.quality)
+            .map_err(|e| InputError(format!("--quality {} {e}", self.quality)))
+    }
+}
 
 /// Parses an accelerator name (`list`, `bvh-wide`, ...); the error lists the
 /// names there are.

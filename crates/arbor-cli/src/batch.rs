@@ -10,6 +10,7 @@ use arbor::load::load_ray_mesh;
 use arbor_accel::{AccelKind, BuildQuality, MeshAccel};
 use clap::Args;
 
+use crate::accel_arg::QualityArg;
 use crate::InputError;
 
 /// How a batch query command runs: threads, repetitions, structure.
@@ -26,10 +27,8 @@ pub struct RunArgs {
     /// binary BVH either way).
     #[arg(long, value_name = "NAME", value_parser = crate::accel_arg::parse)]
     pub accel: Option<AccelKind>,
-    /// Build quality of the ray structure: fast (default) or high (spatial
-    /// splits: a slower build for faster tracing; bvh-wide and bvh-sah).
-    #[arg(long, value_name = "Q", default_value = "fast", value_parser = <BuildQuality as std::str::FromStr>::from_str)]
-    pub quality: BuildQuality,
+    #[command(flatten)]
+    pub build: QualityArg,
 }
 
 /// The structure a batch command builds: its kind and build quality.
@@ -47,14 +46,13 @@ impl RunArgs {
     /// removed on an interrupt.
     pub fn start(&self) -> anyhow::Result<(Structure, rayon::ThreadPool)> {
         let kind = self.accel.unwrap_or(AccelKind::DEFAULT);
-        kind.check_quality(self.quality)
-            .map_err(|e| InputError(format!("--quality {} {e}", self.quality)))?;
+        self.build.check(kind)?;
         let pool = crate::thread_pool(self.threads.map(|n| n as usize))?;
         crate::output::remove_pending_on_interrupt();
         Ok((
             Structure {
                 kind,
-                quality: self.quality,
+                quality: self.build.quality,
             },
             pool,
         ))

@@ -32,7 +32,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde_json::{json, Value};
 
-use crate::accel_arg::AccelChoice;
+use crate::accel_arg::{AccelChoice, QualityArg};
 use crate::InputError;
 
 mod plot;
@@ -76,10 +76,8 @@ pub struct BenchArgs {
     /// Timed passes per ray kind; the fastest counts.
     #[arg(long, value_name = "K", default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeat: u32,
-    /// Build quality for a mesh: fast (default) or high (spatial splits;
-    /// only bvh-wide and bvh-sah have it, and `all` then means those two).
-    #[arg(long, value_name = "Q", default_value = "fast", value_parser = <BuildQuality as std::str::FromStr>::from_str)]
-    pub quality: BuildQuality,
+    #[command(flatten)]
+    pub build: QualityArg,
 }
 
 /// The kinds of rays benched.
@@ -579,7 +577,7 @@ fn load_input(path: &Path) -> anyhow::Result<Input> {
 /// Runs `arbor bench`.
 pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     // Everything the user can get wrong is checked before the slow part.
-    let accels = structures(&args.accel, args.quality)?;
+    let accels = structures(&args.accel, args.build)?;
     let kinds = parse_rays(args.rays.as_deref())?;
     if let Some(p) = &args.plot {
         crate::output::check_writable(p, "--plot")?;
@@ -592,11 +590,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         Format::from_path(&args.input),
         Ok(Format::Xml | Format::Gltf | Format::Glb)
     );
-    if scene && args.quality != BuildQuality::Fast {
+    if scene && args.build.quality != BuildQuality::Fast {
         return Err(InputError(format!(
             "--quality {}: a scene is benched through the renderer's tracer, which builds \
              fast structures only; --quality is for meshes",
-            args.quality
+            args.build.quality
         ))
         .into());
     }
@@ -606,7 +604,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         let results = match &input {
             Input::Mesh(m) => bench_with(m, &accels, &kinds, &args, |k| {
                 let (vertices, triangles) = (m.vertices.clone(), m.triangles.clone());
-                let params = MeshAccel::params(k).with_quality(args.quality);
+                let params = MeshAccel::params(k).with_quality(args.build.quality);
                 let start = Instant::now();
                 let mesh = MeshAccel::build_with(vertices, triangles, k, &params)
                     .map_err(|e| InputError(format!("{}: {e}", args.input.display())))?;
@@ -629,7 +627,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             input: args.input.display().to_string(),
             primitives,
             threads: rayon::current_num_threads(),
-            quality: args.quality,
+            quality: args.build.quality,
             results,
         })
     })?;
@@ -647,20 +645,16 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
 /// The structures `--accel` names at build quality `quality`: at high
 /// quality `all` means the kinds that have it, and a kind named that has
 /// not is an error.
-fn structures(
-    choices: &[AccelChoice],
-    quality: BuildQuality,
-) -> Result<Vec<AccelKind>, InputError> {
+fn structures(choices: &[AccelChoice], build: QualityArg) -> Result<Vec<AccelKind>, InputError> {
     let mut kinds = Vec::new();
     for choice in choices {
         for k in crate::accel_arg::expand(std::slice::from_ref(choice)) {
-            let named = matches!(choice, AccelChoice::One(_));
-            if named {
-                k.check_quality(quality)
-                    .map_err(|e| InputError(format!("--quality {quality} {e}")))?;
-            }
-            if (named || k.check_quality(quality).is_ok()) && !kinds.contains(&k) {
-                kinds.push(k);
+            // A kind named outright must fit; `all` keeps those that do.
+            match build.check(k) {
+                Ok(()) if !kinds.contains(&k) => kinds.push(k),
+                Ok(()) => {}
+                Err(e) if matches!(choice, AccelChoice::One(_)) => return Err(e),
+                Err(_) => {}
             }
         }
     }
