@@ -87,7 +87,7 @@ pub use triangle::{intersect_triangle, TriangleHit, TriangleMesh};
 
 // Inside the crate, the numerics and the mesh-specialised structure by
 // their short names.
-pub(crate) use bvh::{TriangleBvh, PACKET};
+pub(crate) use bvh::TriangleBvh;
 pub(crate) use numerics::*;
 
 /// The exact arithmetic under the structures, for callers that write their

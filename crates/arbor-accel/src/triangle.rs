@@ -782,21 +782,14 @@ pub fn clip_triangle_bounds(tri: [Vec3; 3], clip: &Aabb) -> Option<Aabb> {
     (!b.is_empty()).then_some(b)
 }
 
-/// The next `f32` above `x` (`f32::next_up` needs Rust 1.86, above the MSRV).
+/// The next `f32` above `x`.
 pub(crate) fn next_up(x: f32) -> f32 {
-    if x.is_nan() || x == f32::INFINITY {
-        return x;
-    }
-    if x == 0.0 {
-        return f32::from_bits(1);
-    }
-    let b = x.to_bits();
-    f32::from_bits(if x > 0.0 { b + 1 } else { b - 1 })
+    x.next_up()
 }
 
 /// The next `f32` below `x`.
 pub(crate) fn next_down(x: f32) -> f32 {
-    -next_up(-x)
+    x.next_down()
 }
 
 /// The largest `f32` vector not above `v`, per component.

@@ -437,7 +437,13 @@ mod tests {
             if i % 2 == 0 {
                 // Equal magnitudes on two or three axes.
                 let m = (1 + rng.next() % 1000) as f32 / 7.0;
-                let sign = |r: &mut Rng| if r.next() % 2 == 0 { 1.0 } else { -1.0 };
+                let sign = |r: &mut Rng| {
+                    if r.next().is_multiple_of(2) {
+                        1.0
+                    } else {
+                        -1.0
+                    }
+                };
                 d = Vec3::new(m * sign(&mut rng), m * sign(&mut rng), d.z);
                 if i % 4 == 0 {
                     d.z = m * sign(&mut rng);
@@ -481,7 +487,7 @@ mod tests {
             let probe = Ray::new(origin, dir, 0.0, f32::INFINITY);
             let tris: Vec<[Vec3; 3]> = (0..LANES)
                 .map(|_| {
-                    if rng.next() % 4 != 0 {
+                    if !rng.next().is_multiple_of(4) {
                         // Around a point ahead on the ray, sizes from tiny
                         // to large against the distance.
                         let base = origin + dir * ((rng.next() % 1000) as f32 / 100.0);
@@ -561,7 +567,7 @@ mod tests {
             let packet = |n: usize, rng: &mut Rng| {
                 let tris: Vec<[Vec3; 3]> = (0..n)
                     .map(|_| {
-                        if rng.next() % 2 == 0 {
+                        if rng.next().is_multiple_of(2) {
                             let base = ray.origin + ray.dir * 0.5;
                             [0, 1, 2].map(|_| {
                                 base + Vec3::new(
@@ -654,7 +660,7 @@ mod tests {
             let tris: Vec<[Vec3; 3]> = (0..count)
                 .map(|_| {
                     // Half the triangles near the ray, so that many are hit.
-                    if rng.next() % 2 == 0 {
+                    if rng.next().is_multiple_of(2) {
                         let base = ray.origin + ray.dir * 0.5;
                         let jitter = |r: &mut Rng| {
                             Vec3::new(

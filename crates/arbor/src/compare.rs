@@ -18,7 +18,7 @@ pub struct Comparison {
 /// Compares `a` and `b`, both RGB8 buffers of the same length (3 bytes a
 /// pixel); `None` when the lengths differ or are empty.
 pub fn compare_rgb8(a: &[u8], b: &[u8]) -> Option<Comparison> {
-    if a.len() != b.len() || a.is_empty() || a.len() % 3 != 0 {
+    if a.len() != b.len() || a.is_empty() || !a.len().is_multiple_of(3) {
         return None;
     }
     let mut sq = 0u64;

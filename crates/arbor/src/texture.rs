@@ -252,7 +252,7 @@ pub fn read_pfm_cubemap(path: &std::path::Path, scale: f64) -> Result<CubeMap, S
     let width: usize = tokens[1].parse().map_err(|_| "bad PFM width")?;
     let height: usize = tokens[2].parse().map_err(|_| "bad PFM height")?;
     let endian: f64 = tokens[3].parse().map_err(|_| "bad PFM scale")?;
-    if width == 0 || width % 3 != 0 || height != width / 3 * 4 {
+    if width == 0 || !width.is_multiple_of(3) || height != width / 3 * 4 {
         return Err(format!(
             "a cube map cross must be 3 blocks wide and 4 tall; found {width} x {height}"
         ));

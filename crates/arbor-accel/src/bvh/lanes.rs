@@ -207,12 +207,24 @@ impl BoxLanes for Portable {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use avx2::{has_avx2, Avx2};
+pub(crate) use avx2::{has_avx2, has_avx512, Avx2};
 
 #[cfg(test)]
 thread_local! {
     /// Set while [`without_avx2`] runs its closure.
     static AVX2_HIDDEN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// Set while [`without_avx512`] runs its closure.
+    static AVX512_HIDDEN: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with [`has_avx512`] answering no on this thread, so that the
+/// AVX2 paths run on an AVX-512 machine too (unit tests only).
+#[cfg(test)]
+pub(crate) fn without_avx512<R>(f: impl FnOnce() -> R) -> R {
+    AVX512_HIDDEN.set(true);
+    let result = f();
+    AVX512_HIDDEN.set(false);
+    result
 }
 
 /// Runs `f` with [`has_avx2`] answering no on this thread: every traversal
@@ -247,6 +259,19 @@ mod avx2 {
             return false;
         }
         std::arch::is_x86_feature_detected!("avx2")
+    }
+
+    /// Whether this CPU runs the AVX-512 paths (AVX-512 F, with AVX2 for
+    /// the code around them). [`super::without_avx512`] and
+    /// [`super::without_avx2`] can say no on the current thread in unit
+    /// tests.
+    #[inline(always)]
+    pub(crate) fn has_avx512() -> bool {
+        #[cfg(test)]
+        if super::AVX512_HIDDEN.get() {
+            return false;
+        }
+        has_avx2() && std::arch::is_x86_feature_detected!("avx512f")
     }
 
     /// One 256-bit register per row. Only ever created inside functions

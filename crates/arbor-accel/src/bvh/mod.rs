@@ -15,7 +15,7 @@ mod topdown;
 mod triangles;
 mod wide;
 
-pub(crate) use packet::{looks_coherent, PACKET};
+pub(crate) use packet::{looks_coherent, packet_width, PACKET, PACKET16};
 pub(crate) use triangles::TriangleBvh;
 pub use wide::WideBvh;
 

@@ -1,5 +1,6 @@
 //! Ray packets: eight coherent rays (neighbouring camera rays) through the
-//! wide BVH together, one ray per AVX2 lane.
+//! wide BVH together, one ray per AVX2 lane; sixteen, one per AVX-512
+//! lane, where the CPU has AVX-512 F (chosen at run time).
 //!
 //! A single ray tests a node's eight child boxes in the eight lanes of a
 //! register; a packet tests one child box against its eight rays in the
@@ -41,8 +42,21 @@ use super::STACK_SIZE;
 use crate::util::widen_up;
 use crate::{Counters, Ray};
 
-/// Rays in a packet: one per AVX2 lane.
+/// Rays in a packet on AVX2: one per lane.
 pub const PACKET: usize = 8;
+
+/// Rays in a packet on AVX-512: one per lane.
+pub const PACKET16: usize = 16;
+
+/// The packet width this CPU traces with: [`PACKET16`] with AVX-512 F,
+/// else [`PACKET`] (when it has AVX2; callers check that first).
+pub(crate) fn packet_width() -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if super::lanes::has_avx512() {
+        return PACKET16;
+    }
+    PACKET
+}
 
 /// Whether all directions of `rays` lie in one octant (the same sign bits):
 /// the cheap half of what a packet needs (see
@@ -71,8 +85,8 @@ pub(crate) fn looks_coherent(rays: &[Ray]) -> bool {
 }
 
 /// A pending subtree: node or leaf (`child`, `count` as in a node's
-/// slots), the rays that entered it (bit `i` for lane `i`), and a lower
-/// bound of their entry distances.
+/// slots), the rays that entered it (bit `i` for lane `i`, up to sixteen),
+/// and a lower bound of their entry distances.
 #[derive(Clone, Copy)]
 struct Pending {
     child: u32,
@@ -85,32 +99,97 @@ struct Pending {
 /// level (as for single rays).
 const PACKET_STACK: usize = 7 * STACK_SIZE;
 
+/// A packet's rays in SIMD lanes and the slab test of one box against all
+/// of them: what [`WideBvh::closest_packet_in`] needs of a vector width.
+/// Every method requires the CPU feature of its implementation.
+pub(crate) trait PacketLanes<const N: usize>: Sized {
+    /// One value per lane.
+    type Vector: Copy;
+    /// Which lanes a comparison holds in.
+    type Mask: Copy;
+
+    /// The lanes of `rays`, or `None` unless every ray is on the
+    /// single-ray fast path (finite origin, direction and inverse
+    /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all
+    /// directions share one octant. The inverse directions are `1 / d`
+    /// per lane, bit for bit `Ray::inv_dir` wherever that is finite.
+    unsafe fn new(rays: &[Ray; N]) -> Option<Self>;
+
+    /// The culling distances as a vector.
+    unsafe fn load(cull: &[f32; N]) -> Self::Vector;
+
+    /// Entry distances and the lanes whose ray enters box `slot` of
+    /// `bounds` (rows as in `Node8::bounds`) before `cull`: for each lane,
+    /// operation for operation the single-ray fast path
+    /// (`lanes::Avx2::hit`).
+    unsafe fn slab(
+        &self,
+        bounds: &[[f32; 8]; 6],
+        slot: usize,
+        cull: Self::Vector,
+    ) -> (Self::Vector, Self::Mask);
+
+    /// Bit `i` set where lane `i` of `mask` is.
+    unsafe fn bits(mask: Self::Mask) -> u32;
+
+    /// The smallest lane of `x` among those set in `mask` (+inf if none).
+    unsafe fn hmin_where(x: Self::Vector, mask: Self::Mask) -> f32;
+
+    /// The lanes whose culling distance `cull` is not below `dist`.
+    unsafe fn reach(dist: f32, cull: Self::Vector) -> u32;
+}
+
 impl WideBvh {
-    /// Closest-hit traversal of a packet: calls `leaf(first, count, lane,
-    /// counters)` for every leaf that ray `lane` enters (and maybe some it
-    /// would have culled: `leaf` must reject hits beyond its ray's `tmax`,
-    /// as the single-ray leaf tests do), and takes the returned value as
-    /// that ray's new `tmax`. Returns `false`, having traced nothing, when
-    /// the rays are not coherent enough for a packet (see the module
-    /// documentation).
+    /// Closest-hit traversal of a packet of `N` rays ([`PACKET`] or
+    /// [`PACKET16`]): calls `leaf(first, count, lane, counters)` for every
+    /// leaf that ray `lane` enters (and maybe some it would have culled:
+    /// `leaf` must reject hits beyond its ray's `tmax`, as the single-ray
+    /// leaf tests do), and takes the returned value as that ray's new
+    /// `tmax`. Returns `false`, having traced nothing, when the rays are not
+    /// coherent enough for a packet (see the module documentation).
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The caller must be compiled for, and the CPU support, AVX2 for
+    /// eight rays and AVX-512 F for sixteen.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    pub(crate) unsafe fn closest_packet_avx2<C, L>(
+    #[inline(always)]
+    pub(crate) unsafe fn closest_packet_lanes<const N: usize, C, L>(
         &self,
-        rays: &[Ray; PACKET],
+        rays: &[Ray; N],
         counters: &mut C,
-        mut leaf: L,
+        leaf: L,
     ) -> bool
     where
         C: Counters,
         L: FnMut(usize, usize, usize, &mut C) -> f32,
     {
-        use avx2::{hmin_where, Lanes};
-        use std::arch::x86_64::*;
-        let Some(lanes) = Lanes::new(rays) else {
+        // `N` is a constant: one arm is left after monomorphisation.
+        if let Ok(rays) = <&[Ray; PACKET16]>::try_from(rays.as_slice()) {
+            self.closest_packet_in::<PACKET16, avx512::Lanes, C, L>(rays, counters, leaf)
+        } else if let Ok(rays) = <&[Ray; PACKET]>::try_from(rays.as_slice()) {
+            self.closest_packet_in::<PACKET, avx2::Lanes, C, L>(rays, counters, leaf)
+        } else {
+            false
+        }
+    }
+
+    /// The packet traversal with the lanes `P` of width `N`.
+    ///
+    /// # Safety
+    /// The CPU must support what `P` needs.
+    #[inline(always)]
+    unsafe fn closest_packet_in<const N: usize, P, C, L>(
+        &self,
+        rays: &[Ray; N],
+        counters: &mut C,
+        mut leaf: L,
+    ) -> bool
+    where
+        P: PacketLanes<N>,
+        C: Counters,
+        L: FnMut(usize, usize, usize, &mut C) -> f32,
+    {
+        let Some(lanes) = P::new(rays) else {
             return false;
         };
         if self.nodes.is_empty() {
@@ -122,8 +201,8 @@ impl WideBvh {
         // framed model) costs one test.
         let b = self.bounds;
         let root = [b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z].map(|p| [p; 8]);
-        let (_, inside) = lanes.slab(&root, 0, _mm256_loadu_ps(cull.as_ptr()));
-        let entered = _mm256_movemask_ps(inside) as u32;
+        let (_, inside) = lanes.slab(&root, 0, P::load(&cull));
+        let entered = P::bits(inside);
         if entered == 0 {
             return true;
         }
@@ -150,7 +229,7 @@ impl WideBvh {
                 }
             } else {
                 let n: &Node8 = &self.nodes[at.child as usize];
-                let cull_lanes = _mm256_loadu_ps(cull.as_ptr());
+                let cull_lanes = P::load(&cull);
                 // The children entered, nearest first (insertion into a
                 // list of at most eight).
                 let mut hits = [const { MaybeUninit::<Pending>::uninit() }; 8];
@@ -160,13 +239,13 @@ impl WideBvh {
                     let slot = slots.trailing_zeros() as usize;
                     slots &= slots - 1;
                     let (near, inside) = lanes.slab(&n.bounds, slot, cull_lanes);
-                    let mask = _mm256_movemask_ps(inside) as u32 & at.rays;
+                    let mask = P::bits(inside) & at.rays;
                     if mask == 0 {
                         continue;
                     }
                     // A lower bound of the entering rays' entry distances
                     // (lanes entering outside `at.rays` only lower it).
-                    let dist = hmin_where(near, inside);
+                    let dist = P::hmin_where(near, inside);
                     let mut j = found;
                     // SAFETY: the first `found` entries are written.
                     while j > 0 && unsafe { hits[j - 1].assume_init() }.dist > dist {
@@ -200,10 +279,7 @@ impl WideBvh {
                 depth -= 1;
                 // SAFETY: every slot below `depth` was written by a push.
                 let next = unsafe { stack[depth].assume_init() };
-                let reach = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(
-                    _mm256_set1_ps(next.dist),
-                    _mm256_loadu_ps(cull.as_ptr()),
-                )) as u32;
+                let reach = P::reach(next.dist, P::load(&cull));
                 let rays = next.rays & reach;
                 if rays != 0 {
                     at = Pending { rays, ..next };
@@ -214,19 +290,20 @@ impl WideBvh {
     }
 }
 
-/// The packet's lanes and their slab test, in AVX2.
+/// The packet's lanes and their slab test, in AVX2: eight rays.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::PACKET;
+    use super::{PacketLanes, PACKET};
     use crate::aabb::SLAB_TFAR_SCALE;
     use crate::bvh::lanes::rows_for_signs;
     use crate::Ray;
 
     /// The rays' origins, inverse directions and `tmin`, one ray per lane,
     /// and the rows of a node's bounds holding each axis's near and far
-    /// planes (the same for every ray of a packet).
+    /// planes (the same for every ray of a packet). Only ever created
+    /// inside functions compiled for AVX2.
     pub(super) struct Lanes {
         origin: [__m256; 3],
         inv: [__m256; 3],
@@ -235,17 +312,12 @@ mod avx2 {
         far: [usize; 3],
     }
 
-    impl Lanes {
-        /// The lanes of `rays`, or `None` unless every ray is on the
-        /// single-ray fast path (finite origin, direction and inverse
-        /// direction, `tmin >= 0`: `lanes::needs_slow_path` says no) and all
-        /// directions share one octant. The inverse directions are `1 / d`
-        /// per lane, bit for bit `Ray::inv_dir` wherever that is finite.
-        ///
-        /// # Safety
-        /// The CPU must support AVX2.
+    impl PacketLanes<PACKET> for Lanes {
+        type Vector = __m256;
+        type Mask = __m256;
+
         #[inline(always)]
-        pub(super) unsafe fn new(rays: &[Ray; PACKET]) -> Option<Self> {
+        unsafe fn new(rays: &[Ray; PACKET]) -> Option<Self> {
             // Plain loops and explicit loads (no closures or array maps:
             // they were compiled out of line, without AVX2).
             let mut rows = [[0.0f32; PACKET]; 7];
@@ -303,17 +375,15 @@ mod avx2 {
             })
         }
 
-        /// Entry distances and the lanes (all ones where entered) whose ray
-        /// enters box `slot` of `bounds` (rows as in `Node8::bounds`)
-        /// before `cull`: for each lane, operation for operation the
-        /// single-ray fast path (`lanes::Avx2::hit`).
-        ///
-        /// # Safety
-        /// The CPU must support AVX2.
         #[inline(always)]
-        pub(super) unsafe fn slab(
+        unsafe fn load(cull: &[f32; PACKET]) -> __m256 {
+            _mm256_loadu_ps(cull.as_ptr())
+        }
+
+        #[inline(always)]
+        unsafe fn slab(
             &self,
-            bounds: &[[f32; PACKET]; 6],
+            bounds: &[[f32; 8]; 6],
             slot: usize,
             cull: __m256,
         ) -> (__m256, __m256) {
@@ -331,19 +401,148 @@ mod avx2 {
             let exit = _mm256_min_ps(_mm256_mul_ps(far, _mm256_set1_ps(SLAB_TFAR_SCALE)), cull);
             (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, exit))
         }
+
+        #[inline(always)]
+        unsafe fn bits(mask: __m256) -> u32 {
+            _mm256_movemask_ps(mask) as u32
+        }
+
+        #[inline(always)]
+        unsafe fn hmin_where(x: __m256, mask: __m256) -> f32 {
+            let v = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), x, mask);
+            let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
+            let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b01_00_11_10>(v, v));
+            let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b10_11_00_01>(v, v));
+            _mm256_cvtss_f32(v)
+        }
+
+        #[inline(always)]
+        unsafe fn reach(dist: f32, cull: __m256) -> u32 {
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_set1_ps(dist), cull)) as u32
+        }
+    }
+}
+
+/// The packet's lanes and their slab test, in AVX-512: sixteen rays, the
+/// same arithmetic per lane as [`avx2::Lanes`] (so as the single ray's),
+/// comparisons into mask registers.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::{PacketLanes, PACKET16};
+    use crate::aabb::SLAB_TFAR_SCALE;
+    use crate::bvh::lanes::rows_for_signs;
+    use crate::Ray;
+
+    /// As [`super::avx2::Lanes`], sixteen lanes wide. Only ever created
+    /// inside functions compiled for AVX-512 F.
+    pub(super) struct Lanes {
+        origin: [__m512; 3],
+        inv: [__m512; 3],
+        tmin: __m512,
+        near: [usize; 3],
+        far: [usize; 3],
     }
 
-    /// The smallest lane of `x` among those set in `mask` (+inf if none).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[inline(always)]
-    pub(super) unsafe fn hmin_where(x: __m256, mask: __m256) -> f32 {
-        let v = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), x, mask);
-        let v = _mm256_min_ps(v, _mm256_permute2f128_ps::<1>(v, v));
-        let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b01_00_11_10>(v, v));
-        let v = _mm256_min_ps(v, _mm256_shuffle_ps::<0b10_11_00_01>(v, v));
-        _mm256_cvtss_f32(v)
+    impl PacketLanes<PACKET16> for Lanes {
+        type Vector = __m512;
+        type Mask = __mmask16;
+
+        #[inline(always)]
+        unsafe fn new(rays: &[Ray; PACKET16]) -> Option<Self> {
+            let mut rows = [[0.0f32; PACKET16]; 7];
+            for (i, r) in rays.iter().enumerate() {
+                rows[0][i] = r.origin.x;
+                rows[1][i] = r.origin.y;
+                rows[2][i] = r.origin.z;
+                rows[3][i] = r.dir.x;
+                rows[4][i] = r.dir.y;
+                rows[5][i] = r.dir.z;
+                rows[6][i] = r.tmin;
+            }
+            let origin = [
+                _mm512_loadu_ps(rows[0].as_ptr()),
+                _mm512_loadu_ps(rows[1].as_ptr()),
+                _mm512_loadu_ps(rows[2].as_ptr()),
+            ];
+            let one = _mm512_set1_ps(1.0);
+            let inv = [
+                _mm512_div_ps(one, _mm512_loadu_ps(rows[3].as_ptr())),
+                _mm512_div_ps(one, _mm512_loadu_ps(rows[4].as_ptr())),
+                _mm512_div_ps(one, _mm512_loadu_ps(rows[5].as_ptr())),
+            ];
+            // The same checks as the AVX2 lanes', as masks.
+            let zero = _mm512_setzero_ps();
+            let finite = |x: __m512| _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(_mm512_mul_ps(x, zero), zero);
+            let nonzero = |x: __m512| _mm512_cmp_ps_mask::<_CMP_NEQ_OQ>(x, zero);
+            let mut ok = finite(origin[0]) & finite(origin[1]) & finite(origin[2]);
+            for v in inv {
+                ok &= finite(v) & nonzero(v);
+            }
+            let tmin = _mm512_loadu_ps(rows[6].as_ptr());
+            ok &= _mm512_cmp_ps_mask::<_CMP_GE_OQ>(tmin, zero);
+            // The inverse directions are finite and nonzero where `ok`, so
+            // `< 0` is their sign bit.
+            let signs = [
+                _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv[0], zero),
+                _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv[1], zero),
+                _mm512_cmp_ps_mask::<_CMP_LT_OQ>(inv[2], zero),
+            ];
+            if ok != 0xffff || signs.iter().any(|&m| m != 0 && m != 0xffff) {
+                return None;
+            }
+            let negative = (signs[0] & 1 | (signs[1] & 1) << 1 | (signs[2] & 1) << 2) as usize;
+            let (near, far) = rows_for_signs(negative);
+            Some(Lanes {
+                origin,
+                inv,
+                tmin,
+                near,
+                far,
+            })
+        }
+
+        #[inline(always)]
+        unsafe fn load(cull: &[f32; PACKET16]) -> __m512 {
+            _mm512_loadu_ps(cull.as_ptr())
+        }
+
+        #[inline(always)]
+        unsafe fn slab(
+            &self,
+            bounds: &[[f32; 8]; 6],
+            slot: usize,
+            cull: __m512,
+        ) -> (__m512, __mmask16) {
+            let mut near = self.tmin;
+            let mut far = _mm512_set1_ps(f32::INFINITY);
+            for a in 0..3 {
+                let lo = _mm512_set1_ps(bounds[self.near[a]][slot]);
+                let hi = _mm512_set1_ps(bounds[self.far[a]][slot]);
+                let lo = _mm512_mul_ps(_mm512_sub_ps(lo, self.origin[a]), self.inv[a]);
+                let hi = _mm512_mul_ps(_mm512_sub_ps(hi, self.origin[a]), self.inv[a]);
+                near = _mm512_max_ps(near, lo);
+                far = _mm512_min_ps(far, hi);
+            }
+            let exit = _mm512_min_ps(_mm512_mul_ps(far, _mm512_set1_ps(SLAB_TFAR_SCALE)), cull);
+            (near, _mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, exit))
+        }
+
+        #[inline(always)]
+        unsafe fn bits(mask: __mmask16) -> u32 {
+            u32::from(mask)
+        }
+
+        #[inline(always)]
+        unsafe fn hmin_where(x: __m512, mask: __mmask16) -> f32 {
+            _mm512_mask_reduce_min_ps(mask, x)
+        }
+
+        #[inline(always)]
+        unsafe fn reach(dist: f32, cull: __m512) -> u32 {
+            u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(_mm512_set1_ps(dist), cull))
+        }
     }
 }
 

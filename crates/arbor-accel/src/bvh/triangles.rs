@@ -17,7 +17,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::packet::{one_octant, PACKET};
+use super::packet::{one_octant, PACKET, PACKET16};
 use super::{Bvh, BvhBuilder, BvhParams, WideBvh};
 #[cfg(target_arch = "x86_64")]
 use crate::triangle_lanes::pair;
@@ -195,51 +195,86 @@ impl TriangleBvh {
         best
     }
 
-    /// [`TriangleBvh::closest`] for each of eight rays traced together as a
-    /// packet, or `None` (nothing traced) when they are not coherent enough
-    /// for one: they must be finite, with no zero direction component,
-    /// `tmin >= 0` and all directions in one octant (neighbouring camera
-    /// rays are), and the CPU must have AVX2. Callers trace the others one
-    /// by one. Each answer
-    /// is the ray's own closest hit; of several triangles hit at exactly
-    /// the same distance, the packet may report another one than the
-    /// single ray would (see `bvh/packet.rs`).
+    /// [`TriangleBvh::closest`] for each of `N` rays traced together as a
+    /// packet, `N` being [`PACKET`] (eight, on a CPU with AVX2) or
+    /// [`PACKET16`] (sixteen, with AVX-512 F), or `None` (nothing traced)
+    /// when they are not coherent enough for one: they must be finite,
+    /// with no zero direction component, `tmin >= 0` and all directions in
+    /// one octant (neighbouring camera rays are), and the CPU must have the
+    /// width's instructions. Callers trace the others one by one. Each
+    /// answer is the ray's own closest hit; of several triangles hit at
+    /// exactly the same distance, the packet may report another one than
+    /// the single ray would (see `bvh/packet.rs`).
     #[inline(never)]
-    pub fn closest_packet<C: Counters>(
+    pub fn closest_packet<const N: usize, C: Counters>(
         &self,
-        rays: &[Ray; PACKET],
+        rays: &[Ray; N],
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; PACKET]> {
+    ) -> Option<[Option<MeshHit>; N]> {
         // Directions in different octants (secondary rays, mostly) cannot
-        // form a packet: found out here for the price of eight sign masks.
+        // form a packet: found out here for the price of `N` sign masks.
         if !self.unbounded.is_empty() || !one_octant(rays) {
             return None;
         }
         #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx2() {
-            // SAFETY: the CPU has AVX2.
-            return unsafe { self.closest_packet_avx2(rays, counters) };
+        {
+            if N == PACKET16 && super::lanes::has_avx512() {
+                // SAFETY: the CPU has AVX-512 F.
+                return unsafe { self.closest_packet_avx512(rays, counters) };
+            }
+            if N == PACKET && super::lanes::has_avx2() {
+                // SAFETY: the CPU has AVX2.
+                return unsafe { self.closest_packet_avx2(rays, counters) };
+            }
         }
         let _ = counters;
         None
     }
 
-    /// [`TriangleBvh::closest_packet`] for a packet, compiled for AVX2 with
-    /// the leaf test inlined.
+    /// [`TriangleBvh::closest_packet`] compiled for AVX2, the leaf test
+    /// inlined.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn closest_packet_avx2<C: Counters>(
+    unsafe fn closest_packet_avx2<const N: usize, C: Counters>(
         &self,
-        rays: &[Ray; PACKET],
+        rays: &[Ray; N],
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; PACKET]> {
+    ) -> Option<[Option<MeshHit>; N]> {
+        self.closest_packet_leaves(rays, counters)
+    }
+
+    /// [`TriangleBvh::closest_packet`] compiled for AVX-512 F.
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512 F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f")]
+    unsafe fn closest_packet_avx512<const N: usize, C: Counters>(
+        &self,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[Option<MeshHit>; N]> {
+        self.closest_packet_leaves(rays, counters)
+    }
+
+    /// The packet traversal with the single-ray leaf test for each lane.
+    ///
+    /// # Safety
+    /// As [`WideBvh::closest_packet_lanes`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn closest_packet_leaves<const N: usize, C: Counters>(
+        &self,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[Option<MeshHit>; N]> {
         let mut each = *rays;
-        let mut shears: [Option<RayShear>; PACKET] = [None; PACKET];
-        let mut best: [Option<MeshHit>; PACKET] = [None; PACKET];
-        let traced = self.bvh.closest_packet_avx2(
+        let mut shears: [Option<RayShear>; N] = [None; N];
+        let mut best: [Option<MeshHit>; N] = [None; N];
+        let traced = self.bvh.closest_packet_lanes(
             rays,
             counters,
             #[inline(always)]
@@ -512,7 +547,7 @@ mod tests {
                 let from = Vec3::new(
                     0.5 + ((k * 37) % 11) as f32 - 5.0,
                     0.5 + ((k * 53) % 13) as f32 - 6.0,
-                    if k % 3 == 0 { -2.0 } else { 3.0 },
+                    if k.is_multiple_of(3) { -2.0 } else { 3.0 },
                 );
                 rays.push(Ray::new(from, target - from, 0.0, f32::INFINITY));
                 // Axis-parallel rays (zero direction components) too.
@@ -520,7 +555,11 @@ mod tests {
                     Vec3::new(target.x, target.y, 1.0),
                     Vec3::new(0.0, 0.0, -1.0),
                     0.0,
-                    if k % 5 == 0 { 0.5 } else { f32::INFINITY },
+                    if k.is_multiple_of(5) {
+                        0.5
+                    } else {
+                        f32::INFINITY
+                    },
                 ));
             }
         }
@@ -607,9 +646,11 @@ mod tests {
     /// rays answer: the same distance bit for bit, and the same triangle
     /// unless another lies at exactly that distance (a shared edge or
     /// vertex). The camera sees the bumpy grid, its edges and the space
-    /// beside it, with clipped intervals on some rows; the packets are
-    /// really traced as packets on an AVX2 machine, and declined without
-    /// AVX2 and when their directions are not in one octant.
+    /// beside it, with clipped intervals on some rows; packets of eight
+    /// are really traced as packets on an AVX2 machine and packets of
+    /// sixteen on an AVX-512 one (the test says it skipped them elsewhere),
+    /// and declined without those and when their directions are not in one
+    /// octant.
     #[test]
     fn packets_answer_like_single_rays() {
         let mesh = bumpy_grid(32);
@@ -636,10 +677,12 @@ mod tests {
         // over a quarter of the grid, from eyes at different heights, and
         // rays leaving a point on the grid again (`tmin` > 0).
         let mut next = crate::util::unit_sequence(11);
-        for i in 0..6000 {
+        for i in 0..3000 {
             let eye = Vec3::new(0.2 * next(), 0.2 * next(), 0.3 + 3.0 * next());
-            for _ in 0..PACKET {
-                // A third of the packets from eight different origins
+            // Groups of sixteen, so that packets of either width take rays
+            // of one group.
+            for _ in 0..PACKET16 {
+                // A third of the packets from different origins
                 // around the eye (so that the packet's origin intervals are
                 // not points), a third from just above the grid.
                 let ray = match i % 3 {
@@ -662,16 +705,55 @@ mod tests {
                 rays.push(ray);
             }
         }
-        let avx2 = crate::bvh::lanes::has_avx2();
+        check_packets::<PACKET>(&mesh, &bvh, &rays, crate::bvh::lanes::has_avx2());
+        #[cfg(target_arch = "x86_64")]
+        let wide = crate::bvh::lanes::has_avx512();
+        #[cfg(not(target_arch = "x86_64"))]
+        let wide = false;
+        if !wide {
+            eprintln!("skipped: packets of sixteen (this CPU has no AVX-512 F)");
+        }
+        check_packets::<PACKET16>(&mesh, &bvh, &rays, wide);
+        // The width the CPU offers; sixteen declined without AVX-512 (and
+        // eight still traced).
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::bvh::lanes::without_avx512;
+            let sixteen: &[Ray; PACKET16] = rays[..PACKET16].try_into().unwrap();
+            let eight: &[Ray; PACKET] = rays[..PACKET].try_into().unwrap();
+            let hidden = without_avx512(|| {
+                let width = crate::bvh::packet_width();
+                let traced = bvh.closest_packet(eight, &mut crate::NoCounters).is_some();
+                (
+                    width,
+                    bvh.closest_packet(sixteen, &mut crate::NoCounters),
+                    traced,
+                )
+            });
+            assert_eq!(hidden, (PACKET, None, crate::bvh::lanes::has_avx2()));
+            let width = if wide { PACKET16 } else { PACKET };
+            assert_eq!(crate::bvh::packet_width(), width);
+        }
+    }
+
+    /// Packets of `N` rays from `rays` answer like single rays (see
+    /// [`packets_answer_like_single_rays`]); `available`: the CPU traces
+    /// packets of `N` (else every one must be declined).
+    fn check_packets<const N: usize>(
+        mesh: &TriangleMesh,
+        bvh: &TriangleBvh,
+        rays: &[Ray],
+        available: bool,
+    ) {
         let (mut packets, mut hits, mut other_triangle) = (0, 0, 0);
-        for chunk in rays.chunks_exact(PACKET) {
-            let packet: &[Ray; PACKET] = chunk.try_into().unwrap();
+        for chunk in rays.chunks_exact(N) {
+            let packet: &[Ray; N] = chunk.try_into().unwrap();
             let coherent = one_octant(packet);
             let Some(got) = bvh.closest_packet(packet, &mut crate::NoCounters) else {
-                assert!(!avx2 || !coherent, "a coherent packet was declined");
+                assert!(!available || !coherent, "a coherent packet was declined");
                 continue;
             };
-            assert!(coherent);
+            assert!(available && coherent);
             packets += 1;
             for (ray, got) in packet.iter().zip(got) {
                 let want = bvh.closest(ray, &mut crate::NoCounters);
@@ -694,10 +776,10 @@ mod tests {
                 }
             }
         }
-        if avx2 {
+        if available {
             assert!(
-                packets > rays.len() / PACKET * 3 / 4,
-                "only {packets} packets"
+                packets > rays.len() / N * 3 / 4,
+                "only {packets} packets of {N}"
             );
             assert!(hits > rays.len() / 4, "only {hits} hits");
             assert!(
@@ -708,18 +790,19 @@ mod tests {
         // Declined: without AVX2, across octants, and with a ray that also
         // looks behind its origin (`tmin < 0`: the fast path's exit
         // widening holds only for `tmin >= 0`).
-        let packet: &[Ray; PACKET] = rays[..PACKET].try_into().unwrap();
+        let packet: &[Ray; N] = rays[..N].try_into().unwrap();
         let declined = without_avx2(|| bvh.closest_packet(packet, &mut crate::NoCounters));
         assert_eq!(declined, None);
         let mut mixed = *packet;
         mixed[3].dir.x = -mixed[3].dir.x;
         assert_eq!(bvh.closest_packet(&mixed, &mut crate::NoCounters), None);
         let mut behind = *packet;
-        behind[5].tmin = -1.0;
+        behind[N - 3].tmin = -1.0;
         assert_eq!(bvh.closest_packet(&behind, &mut crate::NoCounters), None);
-        if avx2 {
-            assert!(bvh.closest_packet(packet, &mut crate::NoCounters).is_some());
-        }
+        assert_eq!(
+            bvh.closest_packet(packet, &mut crate::NoCounters).is_some(),
+            available
+        );
     }
 
     /// A bumpy `n` x `n` grid of triangles over the unit square.

@@ -21,6 +21,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
+use crate::bvh::{PACKET, PACKET16};
 use crate::{
     intersect_triangle_owned, intersect_triangle_sheared, Accel, AccelKind, AccelParams,
     AccelStats, Accelerator, Bvh, Counters, NoCounters, PrimitiveId, Ray, RayShear, TriangleBvh,
@@ -123,6 +124,26 @@ enum Index {
     /// contiguous copy (one 36-byte read instead of an index triple and three
     /// scattered vertices).
     Generic(Accel, Vec<[Vec3; 3]>),
+}
+
+/// Traces `rays` as one packet of `N` into `slots` when they are `N`
+/// rays that form one on this CPU ([`TriangleBvh::closest_packet`]);
+/// `false`, with nothing written, otherwise.
+fn trace_packet<const N: usize>(
+    bvh: &TriangleBvh,
+    rays: &[Ray],
+    slots: &mut [Option<MeshHit>],
+) -> bool {
+    let Ok(rays) = <&[Ray; N]>::try_from(rays) else {
+        return false;
+    };
+    match bvh.closest_packet(rays, &mut NoCounters) {
+        Some(hits) => {
+            slots.copy_from_slice(&hits);
+            true
+        }
+        None => false,
+    }
 }
 
 impl MeshAccel {
@@ -283,8 +304,9 @@ impl MeshAccel {
     /// [`MeshAccel::closest_batch`] into `out` (`out.len() == rays.len()`).
     /// With `bvh-wide`, a stream that looks like camera rays (at least half
     /// of its first 64 groups of eight consecutive rays in one octant) is
-    /// offered to the packet traversal in groups of eight; the answers are
-    /// each ray's closest hit either way.
+    /// offered to the packet traversal in groups of sixteen (on a CPU with
+    /// AVX-512; a group that is no packet tries its halves) or eight; the
+    /// answers are each ray's closest hit either way.
     ///
     /// # Panics
     /// If `out` and `rays` differ in length.
@@ -292,19 +314,19 @@ impl MeshAccel {
         assert_eq!(rays.len(), out.len(), "one answer slot per ray");
         match &self.index {
             Index::Wide(bvh) if crate::bvh::looks_coherent(rays) => {
-                let packet = crate::PACKET;
+                let packet = crate::bvh::packet_width();
                 out.par_chunks_mut(packet)
                     .zip(rays.par_chunks(packet))
                     .with_min_len(PER_TASK / packet)
                     .for_each(|(slots, rays)| {
-                        let traced = <&[Ray; crate::PACKET]>::try_from(rays)
-                            .ok()
-                            .and_then(|rays| bvh.closest_packet(rays, &mut NoCounters));
-                        if let Some(hits) = traced {
-                            slots.copy_from_slice(&hits);
-                        } else {
-                            for (slot, ray) in slots.iter_mut().zip(rays) {
-                                *slot = bvh.closest(ray, &mut NoCounters);
+                        if trace_packet::<PACKET16>(bvh, rays, slots) {
+                            return;
+                        }
+                        for (slots, rays) in slots.chunks_mut(PACKET).zip(rays.chunks(PACKET)) {
+                            if !trace_packet::<PACKET>(bvh, rays, slots) {
+                                for (slot, ray) in slots.iter_mut().zip(rays) {
+                                    *slot = bvh.closest(ray, &mut NoCounters);
+                                }
                             }
                         }
                     })

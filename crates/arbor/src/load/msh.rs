@@ -109,7 +109,7 @@ pub fn parse_msh(text: &str, path: &Path) -> Result<MeshData, LoadError> {
 
 /// Appends component `i % 3` of a run of 3-vectors.
 fn push_component3(out: &mut Vec<Vec3>, i: usize, v: f32) {
-    if i % 3 == 0 {
+    if i.is_multiple_of(3) {
         out.push(Vec3::new(v, 0.0, 0.0));
     } else if let Some(last) = out.last_mut() {
         last[i % 3] = v;
