@@ -167,7 +167,7 @@ impl RayViews<'_> {
 }
 
 /// Rays per parallel task: enough to amortise the task, few enough to stay
-/// in cache with their answers (and whole packets of eight).
+/// in cache with their answers (and whole packets of eight or sixteen).
 const CHUNK: usize = 1024;
 
 /// A `(k, 3)` float32 array from rows.
