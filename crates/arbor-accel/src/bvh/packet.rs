@@ -290,6 +290,25 @@ impl WideBvh {
     }
 }
 
+/// The rays' origin coordinates, direction coordinates and `tmin`, one
+/// row each, a ray per column: what the lanes load. A plain loop (closures
+/// and array maps were compiled out of line, without the lanes' CPU
+/// features).
+#[inline(always)]
+fn rows<const N: usize>(rays: &[Ray; N]) -> [[f32; N]; 7] {
+    let mut rows = [[0.0f32; N]; 7];
+    for (i, r) in rays.iter().enumerate() {
+        rows[0][i] = r.origin.x;
+        rows[1][i] = r.origin.y;
+        rows[2][i] = r.origin.z;
+        rows[3][i] = r.dir.x;
+        rows[4][i] = r.dir.y;
+        rows[5][i] = r.dir.z;
+        rows[6][i] = r.tmin;
+    }
+    rows
+}
+
 /// The packet's lanes and their slab test, in AVX2: eight rays.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
@@ -318,18 +337,7 @@ mod avx2 {
 
         #[inline(always)]
         unsafe fn new(rays: &[Ray; PACKET]) -> Option<Self> {
-            // Plain loops and explicit loads (no closures or array maps:
-            // they were compiled out of line, without AVX2).
-            let mut rows = [[0.0f32; PACKET]; 7];
-            for (i, r) in rays.iter().enumerate() {
-                rows[0][i] = r.origin.x;
-                rows[1][i] = r.origin.y;
-                rows[2][i] = r.origin.z;
-                rows[3][i] = r.dir.x;
-                rows[4][i] = r.dir.y;
-                rows[5][i] = r.dir.z;
-                rows[6][i] = r.tmin;
-            }
+            let rows = super::rows(rays);
             let origin = [
                 _mm256_loadu_ps(rows[0].as_ptr()),
                 _mm256_loadu_ps(rows[1].as_ptr()),
@@ -425,7 +433,8 @@ mod avx2 {
 
 /// The packet's lanes and their slab test, in AVX-512: sixteen rays, the
 /// same arithmetic per lane as [`avx2::Lanes`] (so as the single ray's),
-/// comparisons into mask registers.
+/// comparisons into mask registers. Written out again rather than shared
+/// through a vector abstraction: each line is one intrinsic of its width.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
     use std::arch::x86_64::*;
@@ -451,16 +460,7 @@ mod avx512 {
 
         #[inline(always)]
         unsafe fn new(rays: &[Ray; PACKET16]) -> Option<Self> {
-            let mut rows = [[0.0f32; PACKET16]; 7];
-            for (i, r) in rays.iter().enumerate() {
-                rows[0][i] = r.origin.x;
-                rows[1][i] = r.origin.y;
-                rows[2][i] = r.origin.z;
-                rows[3][i] = r.dir.x;
-                rows[4][i] = r.dir.y;
-                rows[5][i] = r.dir.z;
-                rows[6][i] = r.tmin;
-            }
+            let rows = super::rows(rays);
             let origin = [
                 _mm512_loadu_ps(rows[0].as_ptr()),
                 _mm512_loadu_ps(rows[1].as_ptr()),
