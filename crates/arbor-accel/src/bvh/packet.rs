@@ -132,7 +132,8 @@ pub(crate) trait PacketLanes<const N: usize>: Sized {
     /// Bit `i` set where lane `i` of `mask` is.
     unsafe fn bits(mask: Self::Mask) -> u32;
 
-    /// The smallest lane of `x` among those set in `mask` (+inf if none).
+    /// The smallest lane of `x` among those set in `mask`, which must not
+    /// be empty (the AVX2 lanes give +inf then, the AVX-512 ones need not).
     unsafe fn hmin_where(x: Self::Vector, mask: Self::Mask) -> f32;
 
     /// The lanes whose culling distance `cull` is not below `dist`.
