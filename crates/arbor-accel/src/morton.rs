@@ -78,11 +78,23 @@ pub(crate) fn answer_in_order<T: Copy + Send + Sync>(
     per_task: usize,
     answer: impl Fn(usize) -> T + Sync,
 ) -> Vec<T> {
+    answer_in_order_carrying(points, per_task, || (), |_, i| answer(i))
+}
+
+/// [`answer_in_order`] where each task carries a state from one point to
+/// the next in Morton order (a fresh `init()` per task): the answer near
+/// the point before, to start the next search from.
+pub(crate) fn answer_in_order_carrying<T: Copy + Send + Sync, S>(
+    points: &[Vec3],
+    per_task: usize,
+    init: impl Fn() -> S + Sync + Send,
+    answer: impl Fn(&mut S, usize) -> T + Sync + Send,
+) -> Vec<T> {
     let order = order(points);
     let answers: Vec<T> = order
         .par_iter()
         .with_min_len(per_task)
-        .map(|&i| answer(i as usize))
+        .map_init(&init, |state, &i| answer(state, i as usize))
         .collect();
     let mut rank = vec![0u32; points.len()];
     for (k, &i) in order.iter().enumerate() {

@@ -46,11 +46,24 @@ impl MeshAccel {
     /// `max_distance`. Triangles with non-finite vertices are never
     /// closest.
     pub fn closest_point(&self, p: Vec3, max_distance: f32) -> Option<ClosestPoint> {
+        self.closest_point_from(p, max_distance, None)
+    }
+
+    /// [`MeshAccel::closest_point`], starting from triangle `hint`'s
+    /// distance as the best so far (the answer of a nearby point): boxes
+    /// farther than that are skipped from the start. The answer is the
+    /// same with or without a hint; only the work differs.
+    pub(crate) fn closest_point_from(
+        &self,
+        p: Vec3,
+        max_distance: f32,
+        hint: Option<PrimitiveId>,
+    ) -> Option<ClosestPoint> {
         if !p.is_finite() || max_distance.is_nan() || max_distance < 0.0 {
             return None;
         }
         let limit = f64::from(max_distance) * f64::from(max_distance);
-        nearest(self.point_bvh(), p.as_dvec3(), limit, |prim| {
+        nearest(self.point_bvh(), p.as_dvec3(), limit, hint, |prim| {
             let [a, b, c] = self.triangle(prim);
             closest_on_triangle(p.as_dvec3(), a.as_dvec3(), b.as_dvec3(), c.as_dvec3())
         })
@@ -58,8 +71,9 @@ impl MeshAccel {
 
     /// [`MeshAccel::closest_point`] for every point with its own
     /// `max_distances[i]`, in parallel (answered in Morton order of the
-    /// points, so that neighbours share what is in cache; returned in the
-    /// points' order).
+    /// points, so that neighbours share what is in cache, each search
+    /// starting from the triangle found for the point before it; returned
+    /// in the points' order).
     ///
     /// # Panics
     /// If the two slices differ in length.
@@ -71,9 +85,18 @@ impl MeshAccel {
         assert_eq!(points.len(), max_distances.len(), "one limit per point");
         // Built before the parallel loop, so no worker waits on another's build.
         self.point_bvh();
-        morton::answer_in_order(points, PER_TASK, |i| {
-            self.closest_point(points[i], max_distances[i])
-        })
+        morton::answer_in_order_carrying(
+            points,
+            PER_TASK,
+            || None,
+            |hint, i| {
+                let found = self.closest_point_from(points[i], max_distances[i], *hint);
+                if let Some(c) = found {
+                    *hint = Some(c.prim);
+                }
+                found
+            },
+        )
     }
 }
 
@@ -91,13 +114,19 @@ fn nearest(
     bvh: &Bvh,
     p: DVec3,
     limit: f64,
+    hint: Option<u32>,
     closest: impl Fn(u32) -> Option<(DVec3, f64, f64, f64)>,
 ) -> Option<ClosestPoint> {
     let nodes = bvh.nodes();
     let prims = bvh.prim_indices();
     let root = nodes.first()?;
-    // (squared distance, prim, point, u, v) of the best so far.
-    let mut best: Option<(f64, u32, DVec3, f64, f64)> = None;
+    // (squared distance, prim, point, u, v) of the best so far. The hint's
+    // distance is the one its leaf would give, so the search below finds
+    // the same minimum (and the same smallest index among ties) as without
+    // it: no box within the best distance is ever skipped.
+    let mut best: Option<(f64, u32, DVec3, f64, f64)> = hint
+        .and_then(|prim| closest(prim).map(|(q, u, v, e2)| (e2, prim, q, u, v)))
+        .filter(|b| b.0 <= limit);
     let bound = |best: &Option<(f64, u32, DVec3, f64, f64)>| best.map_or(limit, |b| b.0);
     let mut stack = [(0u32, 0f64); STACK];
     stack[0] = (0, box_distance2(p, root.min, root.max));
@@ -227,4 +256,56 @@ fn degenerate_weights(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (f64, f64) {
         .into_iter()
         .min_by(|x, y| dist2(*x).total_cmp(&dist2(*y)))
         .unwrap_or((0.0, 0.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{test_meshes, AccelKind};
+
+    fn soup_mesh(n: u32) -> MeshAccel {
+        let soup = test_meshes::soup(n);
+        MeshAccel::build(soup.vertices, soup.triangles, AccelKind::DEFAULT).unwrap()
+    }
+
+    /// Whatever triangle the search starts from, it ends where the search
+    /// without a start does: at the smallest-index triangle at the minimum
+    /// distance, or nothing within the limit.
+    #[test]
+    fn any_hint_gives_the_answer_of_no_hint() {
+        let mesh = soup_mesh(300);
+        let mut unit = crate::util::unit_sequence(60);
+        for k in 0..40 {
+            let p = Vec3::new(unit(), unit(), unit()) * 14.0 - Vec3::splat(2.0);
+            for limit in [f32::INFINITY, 0.5, 0.0] {
+                let plain = mesh.closest_point(p, limit);
+                for hint in [0, 7 * k as u32 % 300, 299] {
+                    assert_eq!(
+                        mesh.closest_point_from(p, limit, Some(hint)),
+                        plain,
+                        "{p} {limit} {hint}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Of two copies of one triangle, the search started from the copy with
+    /// the larger index still answers the smaller.
+    #[test]
+    fn a_hint_on_a_tie_yields_to_the_smaller_index() {
+        let vertices = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::Y,
+            Vec3::new(5.0, 5.0, 5.0),
+            Vec3::new(6.0, 5.0, 5.0),
+            Vec3::new(5.0, 6.0, 5.0),
+        ];
+        let triangles = vec![[3, 4, 5], [0, 1, 2], [0, 1, 2]];
+        let mesh = MeshAccel::build(vertices, triangles, AccelKind::DEFAULT).unwrap();
+        let p = Vec3::new(0.25, 0.25, 1.0);
+        let found = mesh.closest_point_from(p, f32::INFINITY, Some(2)).unwrap();
+        assert_eq!((found.prim, found.distance), (1, 1.0));
+    }
 }

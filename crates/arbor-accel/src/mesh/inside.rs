@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::edges::EdgeUses;
 use super::side_grid::Side;
 use super::{MeshAccel, PER_TASK};
-use crate::{morton, Ray, Vec3};
+use crate::{morton, PrimitiveId, Ray, Vec3};
 
 /// The direction of the inside test's ray: fixed, so answers are
 /// deterministic; away from the axes and diagonals, so that rays from
@@ -86,12 +86,20 @@ impl MeshAccel {
     /// open mesh, both follow the fixed direction's parity). `+inf` for an
     /// empty mesh, NaN for a non-finite point.
     pub fn signed_distance(&self, p: Vec3) -> f32 {
+        self.signed_distance_from(p, &mut None)
+    }
+
+    /// [`MeshAccel::signed_distance`], its closest-point search starting
+    /// from triangle `hint` (see [`MeshAccel::closest_point_from`]), which
+    /// becomes the triangle found.
+    fn signed_distance_from(&self, p: Vec3, hint: &mut Option<PrimitiveId>) -> f32 {
         if !p.is_finite() {
             return f32::NAN;
         }
-        let Some(near) = self.closest_point(p, f32::INFINITY) else {
+        let Some(near) = self.closest_point_from(p, f32::INFINITY, *hint) else {
             return f32::INFINITY;
         };
+        *hint = Some(near.prim);
         if self.contains(p) {
             -near.distance
         } else {
@@ -107,7 +115,12 @@ impl MeshAccel {
         // other worker waits on it, or steal a query that waits on it.
         self.point_bvh();
         self.side_grid();
-        morton::answer_in_order(points, PER_TASK, |i| self.signed_distance(points[i]))
+        morton::answer_in_order_carrying(
+            points,
+            PER_TASK,
+            || None,
+            |hint, i| self.signed_distance_from(points[i], hint),
+        )
     }
 
     /// How many edges are not shared by exactly two triangles running along
