@@ -213,9 +213,7 @@ impl Mesh {
         let mut blocked = vec![false; views.len()];
         py.detach(|| {
             views.answer_into(&mut blocked, |rays, out| {
-                for (slot, ray) in out.iter_mut().zip(rays) {
-                    *slot = self.accel.occluded(ray);
-                }
+                self.accel.occluded_batch_into(rays, out)
             })
         });
         Ok(PyArray1::from_vec(py, blocked))
@@ -264,9 +262,7 @@ impl Mesh {
         let mut counts = vec![0; views.len()];
         py.detach(|| {
             views.answer_into(&mut counts, |rays, out| {
-                for (slot, ray) in out.iter_mut().zip(rays) {
-                    *slot = self.accel.count(ray);
-                }
+                self.accel.count_batch_into(rays, out)
             })
         });
         Ok(PyArray1::from_vec(py, counts))

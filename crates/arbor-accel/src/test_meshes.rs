@@ -22,6 +22,26 @@ pub(crate) fn soup(n: u32) -> TriangleMesh {
     TriangleMesh::new(v, t)
 }
 
+/// 2,000 small triangles scattered in a cube of side 10 and 40 long
+/// slivers across it: the case spatial splits are for, where a few
+/// large boxes inflate every node they fall into.
+pub(crate) fn slivers() -> TriangleMesh {
+    let mut next = crate::util::unit_sequence(5);
+    let mut vertices = Vec::new();
+    for _ in 0..2000 {
+        let a = Vec3::new(next(), next(), next()) * 10.0;
+        let d = Vec3::new(next(), next(), next()) * 0.2;
+        vertices.extend([a, a + d, a + Vec3::new(d.z, d.x, d.y)]);
+    }
+    for _ in 0..40 {
+        let a = Vec3::new(next(), next(), 0.0) * 10.0;
+        let b = Vec3::new(next(), next(), 1.0) * 10.0;
+        vertices.extend([a, b, b + Vec3::splat(0.02)]);
+    }
+    let triangles = (0..2040).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    TriangleMesh::new(vertices, triangles)
+}
+
 /// The nearest hit distance `accel` finds for `ray` on `mesh` (infinity
 /// when none).
 pub(crate) fn nearest_t(accel: &impl Accelerator, mesh: &TriangleMesh, ray: &Ray) -> f32 {

@@ -220,9 +220,11 @@ proptest! {
         }
     }
 
-    /// Streams of camera rays, which the batch traces as packets (of
+    /// Streams of camera rays, which the batches trace as packets (of
     /// sixteen on an AVX-512 CPU, of eight with AVX2), answer as brute
-    /// force: the closest distance of every ray. Every other group of
+    /// force: the closest distance of every ray, whether it is blocked, and
+    /// its count of crossings (on the builds with spatial splits too, whose
+    /// counts packets leave to single rays). Every other group of
     /// sixteen has its second half mirrored into another octant, so that
     /// the sixteen are no packet and each half is traced as one of eight.
     #[test]
@@ -251,14 +253,14 @@ proptest! {
             let mesh =
                 MeshAccel::build_with(vertices.clone(), triangles.clone(), kind, &params).unwrap();
             let batch = mesh.closest_batch(&rays);
-            for (ray, got) in rays.iter().zip(batch) {
-                prop_assert_eq!(
-                    got.map(|h| h.hit.t),
-                    brute_closest_t(&vertices, &triangles, ray),
-                    "{} {:?}",
-                    name,
-                    ray
-                );
+            let blocked = mesh.occluded_batch(&rays);
+            let counts = mesh.count_batch(&rays);
+            for (((ray, got), blocked), count) in rays.iter().zip(batch).zip(blocked).zip(counts) {
+                let want = brute_closest_t(&vertices, &triangles, ray);
+                prop_assert_eq!(got.map(|h| h.hit.t), want, "{} {:?}", name, ray);
+                prop_assert_eq!(blocked, want.is_some(), "{} {:?}", name, ray);
+                let crossings = brute_all_hits(&vertices, &triangles, ray).len() as u32;
+                prop_assert_eq!(count, crossings, "{} {:?}", name, ray);
             }
         }
     }

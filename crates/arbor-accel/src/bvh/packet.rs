@@ -60,7 +60,7 @@ pub(crate) fn packet_width() -> usize {
 
 /// Whether all directions of `rays` lie in one octant (the same sign bits):
 /// the cheap half of what a packet needs (see
-/// [`crate::TriangleBvh::closest_packet`]), which secondary rays in random
+/// [`crate::TriangleBvh::packet`]), which secondary rays in random
 /// directions fail at once.
 pub fn one_octant(rays: &[Ray]) -> bool {
     let Some(first) = rays.first() else {
@@ -71,7 +71,7 @@ pub fn one_octant(rays: &[Ray]) -> bool {
 }
 
 /// Whether `rays` look like a stream of camera rays, worth offering to
-/// [`crate::TriangleBvh::closest_packet`] in eights: at least half of the
+/// [`crate::TriangleBvh::packet`] in eights: at least half of the
 /// first 64 groups of eight have all their directions in one octant.
 /// Secondary rays (random directions) do not, and keep the plain per-ray
 /// loop, which is as fast for them as the offer (camera rays gain from it).

@@ -529,27 +529,8 @@ fn share(room: usize, left: usize, right: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Bvh, BvhBuilder, TriangleMesh};
-
-    /// 2,000 small triangles scattered in a cube of side 10 and 40 long
-    /// slivers across it: the case spatial splits are for, where a few
-    /// large boxes inflate every node they fall into.
-    fn slivers() -> TriangleMesh {
-        let mut next = crate::util::unit_sequence(5);
-        let mut vertices = Vec::new();
-        for _ in 0..2000 {
-            let a = Vec3::new(next(), next(), next()) * 10.0;
-            let d = Vec3::new(next(), next(), next()) * 0.2;
-            vertices.extend([a, a + d, a + Vec3::new(d.z, d.x, d.y)]);
-        }
-        for _ in 0..40 {
-            let a = Vec3::new(next(), next(), 0.0) * 10.0;
-            let b = Vec3::new(next(), next(), 1.0) * 10.0;
-            vertices.extend([a, b, b + Vec3::splat(0.02)]);
-        }
-        let triangles = (0..2040).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
-        TriangleMesh::new(vertices, triangles)
-    }
+    use crate::test_meshes::slivers;
+    use crate::{Bvh, BvhBuilder};
 
     #[test]
     fn spatial_splits_cut_long_slivers_into_a_cheaper_tree_whatever_the_threads() {

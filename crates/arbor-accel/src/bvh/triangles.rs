@@ -195,22 +195,23 @@ impl TriangleBvh {
         best
     }
 
-    /// [`TriangleBvh::closest`] for each of `N` rays traced together as a
-    /// packet, `N` being [`PACKET`] (eight, on a CPU with AVX2) or
-    /// [`PACKET16`] (sixteen, with AVX-512 F), or `None` (nothing traced)
-    /// when they are not coherent enough for one: they must be finite,
-    /// with no zero direction component, `tmin >= 0` and all directions in
-    /// one octant (neighbouring camera rays are), and the CPU must have the
-    /// width's instructions. Callers trace the others one by one. Each
-    /// answer is the ray's own closest hit; of several triangles hit at
-    /// exactly the same distance, the packet may report another one than
-    /// the single ray would (see `bvh/packet.rs`).
+    /// The answers of query `Q` ([`Closest`], [`Occluded`], [`Crossings`])
+    /// for `N` rays traced together as a packet, `N` being [`PACKET`]
+    /// (eight, on a CPU with AVX2) or [`PACKET16`] (sixteen, with AVX-512
+    /// F), or `None` (nothing traced) when they are not coherent enough for
+    /// one: they must be finite, with no zero direction component,
+    /// `tmin >= 0` and all directions in one octant (neighbouring camera
+    /// rays are), and the CPU must have the width's instructions. Callers
+    /// answer the others one by one. Each lane runs the single ray's leaf
+    /// test, so each answer is the ray's own (see `bvh/packet.rs`; of
+    /// several triangles hit at exactly the same distance, a closest-hit
+    /// packet may report another one than the single ray would).
     #[inline(never)]
-    pub fn closest_packet<const N: usize, C: Counters>(
+    pub(crate) fn packet<const N: usize, C: Counters, Q: PacketQuery>(
         &self,
         rays: &[Ray; N],
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
+    ) -> Option<[Q::Answer; N]> {
         // Directions in different octants (secondary rays, mostly) cannot
         // form a packet: found out here for the price of `N` sign masks.
         if !self.unbounded.is_empty() || !one_octant(rays) {
@@ -220,86 +221,43 @@ impl TriangleBvh {
         {
             if N == PACKET16 && super::lanes::has_avx512() {
                 // SAFETY: the CPU has AVX-512 F.
-                return unsafe { self.closest_packet_avx512(rays, counters) };
+                return unsafe { self.packet_avx512::<N, C, Q>(rays, counters) };
             }
             if N == PACKET && super::lanes::has_avx2() {
                 // SAFETY: the CPU has AVX2.
-                return unsafe { self.closest_packet_avx2(rays, counters) };
+                return unsafe { self.packet_avx2::<N, C, Q>(rays, counters) };
             }
         }
         let _ = counters;
         None
     }
 
-    /// [`TriangleBvh::closest_packet`] compiled for AVX2, the leaf test
-    /// inlined.
+    /// [`TriangleBvh::packet`] compiled for AVX2, the leaf test inlined.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn closest_packet_avx2<const N: usize, C: Counters>(
+    unsafe fn packet_avx2<const N: usize, C: Counters, Q: PacketQuery>(
         &self,
         rays: &[Ray; N],
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
-        self.closest_packet_leaves(rays, counters)
+    ) -> Option<[Q::Answer; N]> {
+        Q::trace(self, rays, counters)
     }
 
-    /// [`TriangleBvh::closest_packet`] compiled for AVX-512 F.
+    /// [`TriangleBvh::packet`] compiled for AVX-512 F.
     ///
     /// # Safety
     /// The CPU must support AVX-512 F.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,avx512f")]
-    unsafe fn closest_packet_avx512<const N: usize, C: Counters>(
+    unsafe fn packet_avx512<const N: usize, C: Counters, Q: PacketQuery>(
         &self,
         rays: &[Ray; N],
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
-        self.closest_packet_leaves(rays, counters)
-    }
-
-    /// The packet traversal with the single-ray leaf test for each lane.
-    ///
-    /// # Safety
-    /// As [`WideBvh::closest_packet_lanes`].
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn closest_packet_leaves<const N: usize, C: Counters>(
-        &self,
-        rays: &[Ray; N],
-        counters: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
-        let mut each = *rays;
-        let mut shears: [Option<RayShear>; N] = [None; N];
-        let mut best: [Option<MeshHit>; N] = [None; N];
-        let traced = self.bvh.closest_packet_lanes(
-            rays,
-            counters,
-            #[inline(always)]
-            |first, count, lane, counters| {
-                let ray = &mut each[lane];
-                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(ray));
-                let best = &mut best[lane];
-                self.test_leaf::<false, false, C>(
-                    first,
-                    count,
-                    ray,
-                    shear,
-                    counters,
-                    |prim, hit, ray| {
-                        if best.is_none_or(|b| hit.t < b.hit.t) {
-                            *best = Some(MeshHit { prim, hit });
-                        }
-                        ray.tmax = ray.tmax.min(hit.t);
-                        false
-                    },
-                );
-                ray.tmax
-            },
-        );
-        traced.then_some(best)
+    ) -> Option<[Q::Answer; N]> {
+        Q::trace(self, rays, counters)
     }
 
     /// Whether any triangle is hit within `[ray.tmin, ray.tmax]`.
@@ -515,6 +473,193 @@ impl TriangleBvh {
     }
 }
 
+/// A query a packet answers, lane by lane, with the single ray's leaf test:
+/// what [`TriangleBvh::packet`] runs inside its target-feature entry points.
+pub(crate) trait PacketQuery {
+    /// One ray's answer.
+    type Answer: Copy + Send + Sync;
+
+    /// The packet traversal with this query's leaf test for each lane.
+    ///
+    /// # Safety
+    /// As [`WideBvh::closest_packet_lanes`].
+    unsafe fn trace<const N: usize, C: Counters>(
+        bvh: &TriangleBvh,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[Self::Answer; N]>;
+}
+
+/// Each ray's closest hit, as [`TriangleBvh::closest`] finds it.
+pub(crate) struct Closest;
+
+/// Whether anything blocks each ray, as [`TriangleBvh::occluded`] answers
+/// (a ray leaves the packet at its first blocker).
+pub(crate) struct Occluded;
+
+/// How many crossings of the surface each ray meets, each once (the
+/// mesh's `count`: the owned triangle test on the ray's whole interval).
+/// Declined (`None`) where a triangle sits in several leaves
+/// ([`TriangleBvh::has_repeats`]): counting there needs the crossings'
+/// triangles told apart.
+pub(crate) struct Crossings;
+
+/// The culling distance a blocked ray returns to the packet: below every
+/// entry distance (a packet's rays have `tmin >= 0`), so the ray enters
+/// nothing more; finite, so that widening it stays a number.
+const BLOCKED: f32 = -1.0;
+
+impl PacketQuery for Closest {
+    type Answer = Option<MeshHit>;
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn trace<const N: usize, C: Counters>(
+        bvh: &TriangleBvh,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[Option<MeshHit>; N]> {
+        let mut each = *rays;
+        let mut shears: [Option<RayShear>; N] = [None; N];
+        let mut best: [Option<MeshHit>; N] = [None; N];
+        let traced = bvh.bvh.closest_packet_lanes(
+            rays,
+            counters,
+            #[inline(always)]
+            |first, count, lane, counters| {
+                let ray = &mut each[lane];
+                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(ray));
+                let best = &mut best[lane];
+                bvh.test_leaf::<false, false, C>(
+                    first,
+                    count,
+                    ray,
+                    shear,
+                    counters,
+                    |prim, hit, ray| {
+                        if best.is_none_or(|b| hit.t < b.hit.t) {
+                            *best = Some(MeshHit { prim, hit });
+                        }
+                        ray.tmax = ray.tmax.min(hit.t);
+                        false
+                    },
+                );
+                ray.tmax
+            },
+        );
+        traced.then_some(best)
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    unsafe fn trace<const N: usize, C: Counters>(
+        _: &TriangleBvh,
+        _: &[Ray; N],
+        _: &mut C,
+    ) -> Option<[Option<MeshHit>; N]> {
+        None
+    }
+}
+
+impl PacketQuery for Occluded {
+    type Answer = bool;
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn trace<const N: usize, C: Counters>(
+        bvh: &TriangleBvh,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[bool; N]> {
+        let mut shears: [Option<RayShear>; N] = [None; N];
+        let mut blocked = [false; N];
+        let traced = bvh.bvh.closest_packet_lanes(
+            rays,
+            counters,
+            #[inline(always)]
+            |first, count, lane, counters| {
+                let mut ray = rays[lane];
+                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(&ray));
+                // The single ray's any-hit leaf test.
+                if bvh.test_leaf::<true, false, C>(
+                    first,
+                    count,
+                    &mut ray,
+                    shear,
+                    counters,
+                    |_, _, _| true,
+                ) {
+                    blocked[lane] = true;
+                    return BLOCKED;
+                }
+                ray.tmax
+            },
+        );
+        traced.then_some(blocked)
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    unsafe fn trace<const N: usize, C: Counters>(
+        _: &TriangleBvh,
+        _: &[Ray; N],
+        _: &mut C,
+    ) -> Option<[bool; N]> {
+        None
+    }
+}
+
+impl PacketQuery for Crossings {
+    type Answer = u32;
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn trace<const N: usize, C: Counters>(
+        bvh: &TriangleBvh,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[u32; N]> {
+        if bvh.has_repeats() {
+            return None;
+        }
+        let mut shears: [Option<RayShear>; N] = [None; N];
+        let mut counts = [0u32; N];
+        let traced = bvh.bvh.closest_packet_lanes(
+            rays,
+            counters,
+            #[inline(always)]
+            |first, count, lane, counters| {
+                // The ray's whole interval, never shrunk: every leaf it
+                // enters is offered once (a tree; no repeats, checked by
+                // the caller), as on the single ray's walk.
+                let mut ray = rays[lane];
+                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(&ray));
+                let n = &mut counts[lane];
+                bvh.test_leaf::<false, true, C>(
+                    first,
+                    count,
+                    &mut ray,
+                    shear,
+                    counters,
+                    |_, _, _| {
+                        *n += 1;
+                        false
+                    },
+                );
+                ray.tmax
+            },
+        );
+        traced.then_some(counts)
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    unsafe fn trace<const N: usize, C: Counters>(
+        _: &TriangleBvh,
+        _: &[Ray; N],
+        _: &mut C,
+    ) -> Option<[u32; N]> {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -723,10 +868,12 @@ mod tests {
             let eight: &[Ray; PACKET] = rays[..PACKET].try_into().unwrap();
             let hidden = without_avx512(|| {
                 let width = crate::bvh::packet_width();
-                let traced = bvh.closest_packet(eight, &mut crate::NoCounters).is_some();
+                let traced = bvh
+                    .packet::<_, _, Closest>(eight, &mut crate::NoCounters)
+                    .is_some();
                 (
                     width,
-                    bvh.closest_packet(sixteen, &mut crate::NoCounters),
+                    bvh.packet::<_, _, Closest>(sixteen, &mut crate::NoCounters),
                     traced,
                 )
             });
@@ -734,6 +881,33 @@ mod tests {
             let width = if wide { PACKET16 } else { PACKET };
             assert_eq!(crate::bvh::packet_width(), width);
         }
+    }
+
+    /// Where spatial splits put a triangle into several leaves, packets
+    /// still answer closest hits and occlusion but leave counts to single
+    /// rays, which tell the crossings' triangles apart.
+    #[test]
+    fn packets_leave_counts_to_single_rays_where_triangles_repeat() {
+        let mesh = crate::test_meshes::slivers();
+        let bvh = TriangleBvh::build(&mesh, &TriangleBvh::params().high_quality());
+        assert!(bvh.has_repeats(), "no triangle was cut");
+        let eye = Vec3::new(5.0, 5.0, 8.0);
+        let rays: [Ray; PACKET] = std::array::from_fn(|i| {
+            Ray::new(
+                eye,
+                Vec3::new(0.1 + 0.01 * i as f32, 0.2, -1.0),
+                0.0,
+                f32::INFINITY,
+            )
+        });
+        assert_eq!(
+            bvh.packet::<_, _, Crossings>(&rays, &mut crate::NoCounters),
+            None
+        );
+        let traced = bvh
+            .packet::<_, _, Occluded>(&rays, &mut crate::NoCounters)
+            .is_some();
+        assert_eq!(traced, crate::bvh::lanes::has_avx2());
     }
 
     /// Packets of `N` rays from `rays` answer like single rays (see
@@ -745,16 +919,35 @@ mod tests {
         rays: &[Ray],
         available: bool,
     ) {
-        let (mut packets, mut hits, mut other_triangle) = (0, 0, 0);
+        let (mut packets, mut hits, mut other_triangle, mut several) = (0, 0, 0, 0);
         for chunk in rays.chunks_exact(N) {
             let packet: &[Ray; N] = chunk.try_into().unwrap();
             let coherent = one_octant(packet);
-            let Some(got) = bvh.closest_packet(packet, &mut crate::NoCounters) else {
+            let Some(got) = bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters) else {
                 assert!(!available || !coherent, "a coherent packet was declined");
                 continue;
             };
             assert!(available && coherent);
             packets += 1;
+            // Occlusion and counts take the same packets, each answer the
+            // single ray's.
+            let blocked = bvh
+                .packet::<_, _, Occluded>(packet, &mut crate::NoCounters)
+                .unwrap();
+            let counts = bvh
+                .packet::<_, _, Crossings>(packet, &mut crate::NoCounters)
+                .unwrap();
+            for ((ray, &blocked), &count) in packet.iter().zip(&blocked).zip(&counts) {
+                assert_eq!(
+                    blocked,
+                    bvh.occluded(ray, &mut crate::NoCounters),
+                    "{ray:?}"
+                );
+                let mut crossings = 0;
+                bvh.for_each_crossing(ray, &mut crate::NoCounters, |_| crossings += 1);
+                assert_eq!(count, crossings, "{ray:?}");
+                several += usize::from(count > 1);
+            }
             for (ray, got) in packet.iter().zip(got) {
                 let want = bvh.closest(ray, &mut crate::NoCounters);
                 assert_eq!(
@@ -782,6 +975,7 @@ mod tests {
                 "only {packets} packets of {N}"
             );
             assert!(hits > rays.len() / 4, "only {hits} hits");
+            assert!(several > 0, "no ray crosses the surface twice");
             assert!(
                 other_triangle < hits / 100,
                 "{other_triangle} ties of {hits}"
@@ -791,16 +985,23 @@ mod tests {
         // looks behind its origin (`tmin < 0`: the fast path's exit
         // widening holds only for `tmin >= 0`).
         let packet: &[Ray; N] = rays[..N].try_into().unwrap();
-        let declined = without_avx2(|| bvh.closest_packet(packet, &mut crate::NoCounters));
+        let declined = without_avx2(|| bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters));
         assert_eq!(declined, None);
         let mut mixed = *packet;
         mixed[3].dir.x = -mixed[3].dir.x;
-        assert_eq!(bvh.closest_packet(&mixed, &mut crate::NoCounters), None);
+        assert_eq!(
+            bvh.packet::<_, _, Closest>(&mixed, &mut crate::NoCounters),
+            None
+        );
         let mut behind = *packet;
         behind[N - 3].tmin = -1.0;
-        assert_eq!(bvh.closest_packet(&behind, &mut crate::NoCounters), None);
         assert_eq!(
-            bvh.closest_packet(packet, &mut crate::NoCounters).is_some(),
+            bvh.packet::<_, _, Closest>(&behind, &mut crate::NoCounters),
+            None
+        );
+        assert_eq!(
+            bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters)
+                .is_some(),
             available
         );
     }

@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 
 use super::{MeshAccel, MeshHit, PER_TASK};
+use crate::bvh::Crossings;
 use crate::{Counters, NoCounters, Ray};
 
 /// Every hit of a batch of rays, in ray order: ray `i`'s hits are the
@@ -131,11 +132,19 @@ impl MeshAccel {
         all
     }
 
-    /// [`MeshAccel::count`] for every ray, in parallel.
+    /// [`MeshAccel::count`] for every ray, in parallel (coherent rays in
+    /// packets, as in [`MeshAccel::closest_batch_into`]).
     pub fn count_batch(&self, rays: &[Ray]) -> Vec<u32> {
-        rays.par_iter()
-            .with_min_len(PER_TASK)
-            .map(|ray| self.count(ray))
-            .collect()
+        let mut out = vec![0; rays.len()];
+        self.count_batch_into(rays, &mut out);
+        out
+    }
+
+    /// [`MeshAccel::count_batch`] into `out` (`out.len() == rays.len()`).
+    ///
+    /// # Panics
+    /// If `out` and `rays` differ in length.
+    pub fn count_batch_into(&self, rays: &[Ray], out: &mut [u32]) {
+        self.batch_into::<Crossings>(rays, out, |ray| self.count(ray));
     }
 }

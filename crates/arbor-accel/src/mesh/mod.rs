@@ -21,7 +21,7 @@ use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use crate::bvh::{PACKET, PACKET16};
+use crate::bvh::{Closest, Occluded, PacketQuery, PACKET, PACKET16};
 use crate::{
     intersect_triangle_owned, intersect_triangle_sheared, Accel, AccelKind, AccelParams,
     AccelStats, Accelerator, Bvh, Counters, NoCounters, PrimitiveId, Ray, RayShear, TriangleBvh,
@@ -126,20 +126,20 @@ enum Index {
     Generic(Accel, Vec<[Vec3; 3]>),
 }
 
-/// Traces `rays` as one packet of `N` into `slots` when they are `N`
-/// rays that form one on this CPU ([`TriangleBvh::closest_packet`]);
-/// `false`, with nothing written, otherwise.
-fn trace_packet<const N: usize>(
+/// Answers `rays` as one packet of `N` into `slots` when they are `N` rays
+/// that form one on this CPU ([`TriangleBvh::packet`]); `false`,
+/// with nothing written, otherwise.
+fn trace_packet<const N: usize, Q: PacketQuery>(
     bvh: &TriangleBvh,
     rays: &[Ray],
-    slots: &mut [Option<MeshHit>],
+    slots: &mut [Q::Answer],
 ) -> bool {
     let Ok(rays) = <&[Ray; N]>::try_from(rays) else {
         return false;
     };
-    match bvh.closest_packet(rays, &mut NoCounters) {
-        Some(hits) => {
-            slots.copy_from_slice(&hits);
+    match bvh.packet::<N, _, Q>(rays, &mut NoCounters) {
+        Some(answers) => {
+            slots.copy_from_slice(&answers);
             true
         }
         None => false,
@@ -311,6 +311,37 @@ impl MeshAccel {
     /// # Panics
     /// If `out` and `rays` differ in length.
     pub fn closest_batch_into(&self, rays: &[Ray], out: &mut [Option<MeshHit>]) {
+        self.batch_into::<Closest>(rays, out, |ray| self.closest(ray));
+    }
+
+    /// [`MeshAccel::occluded`] for every ray, in parallel (coherent rays in
+    /// packets, as in [`MeshAccel::closest_batch_into`]).
+    pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
+        let mut out = vec![false; rays.len()];
+        self.occluded_batch_into(rays, &mut out);
+        out
+    }
+
+    /// [`MeshAccel::occluded_batch`] into `out` (`out.len() == rays.len()`).
+    ///
+    /// # Panics
+    /// If `out` and `rays` differ in length.
+    pub fn occluded_batch_into(&self, rays: &[Ray], out: &mut [bool]) {
+        self.batch_into::<Occluded>(rays, out, |ray| self.occluded(ray));
+    }
+
+    /// `single(ray)` for every ray into `out`, in parallel. With `bvh-wide`,
+    /// a stream that looks like camera rays (at least half of its first 64
+    /// groups of eight consecutive rays in one octant) goes through the
+    /// packet query `Q` in groups of sixteen (on a CPU with AVX-512; a group
+    /// that is no packet tries its halves) or eight, and the rays of groups
+    /// that are no packet one by one; `Q` answers as `single` does.
+    fn batch_into<Q: PacketQuery>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        single: impl Fn(&Ray) -> Q::Answer + Sync,
+    ) {
         assert_eq!(rays.len(), out.len(), "one answer slot per ray");
         match &self.index {
             Index::Wide(bvh) if crate::bvh::looks_coherent(rays) => {
@@ -319,13 +350,13 @@ impl MeshAccel {
                     .zip(rays.par_chunks(packet))
                     .with_min_len(PER_TASK / packet)
                     .for_each(|(slots, rays)| {
-                        if trace_packet::<PACKET16>(bvh, rays, slots) {
+                        if trace_packet::<PACKET16, Q>(bvh, rays, slots) {
                             return;
                         }
                         for (slots, rays) in slots.chunks_mut(PACKET).zip(rays.chunks(PACKET)) {
-                            if !trace_packet::<PACKET>(bvh, rays, slots) {
+                            if !trace_packet::<PACKET, Q>(bvh, rays, slots) {
                                 for (slot, ray) in slots.iter_mut().zip(rays) {
-                                    *slot = bvh.closest(ray, &mut NoCounters);
+                                    *slot = single(ray);
                                 }
                             }
                         }
@@ -335,16 +366,8 @@ impl MeshAccel {
                 .par_iter_mut()
                 .zip(rays.par_iter())
                 .with_min_len(PER_TASK)
-                .for_each(|(slot, ray)| *slot = self.closest(ray)),
+                .for_each(|(slot, ray)| *slot = single(ray)),
         }
-    }
-
-    /// [`MeshAccel::occluded`] for every ray, in parallel.
-    pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
-        rays.par_iter()
-            .with_min_len(PER_TASK)
-            .map(|ray| self.occluded(ray))
-            .collect()
     }
 
     /// Calls `f` for every crossing of the surface within `ray`'s whole
