@@ -243,7 +243,7 @@ impl TriangleBvh {
         rays: &[Ray; N],
         counters: &mut C,
     ) -> Option<[Q::Answer; N]> {
-        Q::trace(self, rays, counters)
+        self.packet_lanes::<N, C, Q>(rays, counters)
     }
 
     /// [`TriangleBvh::packet`] compiled for AVX-512 F.
@@ -257,7 +257,39 @@ impl TriangleBvh {
         rays: &[Ray; N],
         counters: &mut C,
     ) -> Option<[Q::Answer; N]> {
-        Q::trace(self, rays, counters)
+        self.packet_lanes::<N, C, Q>(rays, counters)
+    }
+
+    /// The packet traversal with query `Q`'s leaf test for each lane.
+    ///
+    /// # Safety
+    /// As [`WideBvh::closest_packet_lanes`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn packet_lanes<const N: usize, C: Counters, Q: PacketQuery>(
+        &self,
+        rays: &[Ray; N],
+        counters: &mut C,
+    ) -> Option<[Q::Answer; N]> {
+        if Q::declined(self) {
+            return None;
+        }
+        let mut each = *rays;
+        let mut shears: [Option<RayShear>; N] = [None; N];
+        let mut answers = [Q::START; N];
+        let traced = self.bvh.closest_packet_lanes(
+            rays,
+            counters,
+            #[inline(always)]
+            |first, count, lane, counters| {
+                let ray = &mut each[lane];
+                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(ray));
+                let answer = &mut answers[lane];
+                let stopped = Q::test(self, (first, count), ray, shear, counters, answer);
+                Q::after_leaf(answer, stopped, ray)
+            },
+        );
+        traced.then_some(answers)
     }
 
     /// Whether any triangle is hit within `[ray.tmin, ray.tmax]`.
@@ -473,21 +505,36 @@ impl TriangleBvh {
     }
 }
 
-/// A query a packet answers, lane by lane, with the single ray's leaf test:
-/// what [`TriangleBvh::packet`] runs inside its target-feature entry points.
+/// A query a packet answers, lane by lane, with the single ray's leaf test
+/// (`TriangleBvh::test_leaf`): what a lane keeps, how a hit changes it, and
+/// where the lane's ray may still go after a leaf.
 pub(crate) trait PacketQuery {
     /// One ray's answer.
     type Answer: Copy + Send + Sync;
+    /// Each ray's answer before its first leaf.
+    const START: Self::Answer;
 
-    /// The packet traversal with this query's leaf test for each lane.
-    ///
-    /// # Safety
-    /// As [`WideBvh::closest_packet_lanes`].
-    unsafe fn trace<const N: usize, C: Counters>(
+    /// Whether the query leaves `bvh`'s rays to single rays.
+    fn declined(bvh: &TriangleBvh) -> bool {
+        let _ = bvh;
+        false
+    }
+
+    /// The leaf `(first, count)` tested for the lane's `ray`, its hits
+    /// taken into `answer` (which may shrink `ray`): `test_leaf` with the
+    /// query's `ANY_HIT` and `OWNED`. `true` when it stopped early.
+    fn test<C: Counters>(
         bvh: &TriangleBvh,
-        rays: &[Ray; N],
+        leaf: (usize, usize),
+        ray: &mut Ray,
+        shear: &RayShear,
         counters: &mut C,
-    ) -> Option<[Self::Answer; N]>;
+        answer: &mut Self::Answer,
+    ) -> bool;
+
+    /// The lane's culling distance after a leaf, whose test ended early
+    /// when `stopped`.
+    fn after_leaf(answer: &mut Self::Answer, stopped: bool, ray: &Ray) -> f32;
 }
 
 /// Each ray's closest hit, as [`TriangleBvh::closest`] finds it.
@@ -499,164 +546,99 @@ pub(crate) struct Occluded;
 
 /// How many crossings of the surface each ray meets, each once (the
 /// mesh's `count`: the owned triangle test on the ray's whole interval).
-/// Declined (`None`) where a triangle sits in several leaves
+/// Declined where a triangle sits in several leaves
 /// ([`TriangleBvh::has_repeats`]): counting there needs the crossings'
 /// triangles told apart.
 pub(crate) struct Crossings;
 
-/// The culling distance a blocked ray returns to the packet: below every
-/// entry distance (a packet's rays have `tmin >= 0`), so the ray enters
-/// nothing more; finite, so that widening it stays a number.
-const BLOCKED: f32 = -1.0;
-
 impl PacketQuery for Closest {
     type Answer = Option<MeshHit>;
+    const START: Option<MeshHit> = None;
 
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn trace<const N: usize, C: Counters>(
+    fn test<C: Counters>(
         bvh: &TriangleBvh,
-        rays: &[Ray; N],
+        (first, count): (usize, usize),
+        ray: &mut Ray,
+        shear: &RayShear,
         counters: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
-        let mut each = *rays;
-        let mut shears: [Option<RayShear>; N] = [None; N];
-        let mut best: [Option<MeshHit>; N] = [None; N];
-        let traced = bvh.bvh.closest_packet_lanes(
-            rays,
-            counters,
-            #[inline(always)]
-            |first, count, lane, counters| {
-                let ray = &mut each[lane];
-                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(ray));
-                let best = &mut best[lane];
-                bvh.test_leaf::<false, false, C>(
-                    first,
-                    count,
-                    ray,
-                    shear,
-                    counters,
-                    |prim, hit, ray| {
-                        if best.is_none_or(|b| hit.t < b.hit.t) {
-                            *best = Some(MeshHit { prim, hit });
-                        }
-                        ray.tmax = ray.tmax.min(hit.t);
-                        false
-                    },
-                );
-                ray.tmax
-            },
-        );
-        traced.then_some(best)
+        best: &mut Option<MeshHit>,
+    ) -> bool {
+        bvh.test_leaf::<false, false, C>(first, count, ray, shear, counters, |prim, hit, ray| {
+            if best.is_none_or(|b| hit.t < b.hit.t) {
+                *best = Some(MeshHit { prim, hit });
+            }
+            ray.tmax = ray.tmax.min(hit.t);
+            false
+        })
     }
 
-    #[cfg(not(target_arch = "x86_64"))]
-    unsafe fn trace<const N: usize, C: Counters>(
-        _: &TriangleBvh,
-        _: &[Ray; N],
-        _: &mut C,
-    ) -> Option<[Option<MeshHit>; N]> {
-        None
+    #[inline(always)]
+    fn after_leaf(_: &mut Option<MeshHit>, _: bool, ray: &Ray) -> f32 {
+        ray.tmax
     }
 }
 
 impl PacketQuery for Occluded {
     type Answer = bool;
+    const START: bool = false;
 
-    #[cfg(target_arch = "x86_64")]
+    // The single ray's any-hit test: it stops at the first triangle
+    // certainly hit.
     #[inline(always)]
-    unsafe fn trace<const N: usize, C: Counters>(
+    fn test<C: Counters>(
         bvh: &TriangleBvh,
-        rays: &[Ray; N],
+        (first, count): (usize, usize),
+        ray: &mut Ray,
+        shear: &RayShear,
         counters: &mut C,
-    ) -> Option<[bool; N]> {
-        let mut shears: [Option<RayShear>; N] = [None; N];
-        let mut blocked = [false; N];
-        let traced = bvh.bvh.closest_packet_lanes(
-            rays,
-            counters,
-            #[inline(always)]
-            |first, count, lane, counters| {
-                let mut ray = rays[lane];
-                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(&ray));
-                // The single ray's any-hit leaf test.
-                if bvh.test_leaf::<true, false, C>(
-                    first,
-                    count,
-                    &mut ray,
-                    shear,
-                    counters,
-                    |_, _, _| true,
-                ) {
-                    blocked[lane] = true;
-                    return BLOCKED;
-                }
-                ray.tmax
-            },
-        );
-        traced.then_some(blocked)
+        _: &mut bool,
+    ) -> bool {
+        bvh.test_leaf::<true, false, C>(first, count, ray, shear, counters, |_, _, _| true)
     }
 
-    #[cfg(not(target_arch = "x86_64"))]
-    unsafe fn trace<const N: usize, C: Counters>(
-        _: &TriangleBvh,
-        _: &[Ray; N],
-        _: &mut C,
-    ) -> Option<[bool; N]> {
-        None
+    #[inline(always)]
+    fn after_leaf(blocked: &mut bool, stopped: bool, ray: &Ray) -> f32 {
+        if stopped {
+            *blocked = true;
+            // Below every entry distance (a packet's rays have
+            // `tmin >= 0`), so the ray enters nothing more; finite, so
+            // that widening it stays a number.
+            return -1.0;
+        }
+        ray.tmax
     }
 }
 
 impl PacketQuery for Crossings {
     type Answer = u32;
+    const START: u32 = 0;
 
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn trace<const N: usize, C: Counters>(
-        bvh: &TriangleBvh,
-        rays: &[Ray; N],
-        counters: &mut C,
-    ) -> Option<[u32; N]> {
-        if bvh.has_repeats() {
-            return None;
-        }
-        let mut shears: [Option<RayShear>; N] = [None; N];
-        let mut counts = [0u32; N];
-        let traced = bvh.bvh.closest_packet_lanes(
-            rays,
-            counters,
-            #[inline(always)]
-            |first, count, lane, counters| {
-                // The ray's whole interval, never shrunk: every leaf it
-                // enters is offered once (a tree; no repeats, checked by
-                // the caller), as on the single ray's walk.
-                let mut ray = rays[lane];
-                let shear = &*shears[lane].get_or_insert_with(|| RayShear::new(&ray));
-                let n = &mut counts[lane];
-                bvh.test_leaf::<false, true, C>(
-                    first,
-                    count,
-                    &mut ray,
-                    shear,
-                    counters,
-                    |_, _, _| {
-                        *n += 1;
-                        false
-                    },
-                );
-                ray.tmax
-            },
-        );
-        traced.then_some(counts)
+    fn declined(bvh: &TriangleBvh) -> bool {
+        bvh.has_repeats()
     }
 
-    #[cfg(not(target_arch = "x86_64"))]
-    unsafe fn trace<const N: usize, C: Counters>(
-        _: &TriangleBvh,
-        _: &[Ray; N],
-        _: &mut C,
-    ) -> Option<[u32; N]> {
-        None
+    // The owned test: each crossing reported by one triangle.
+    #[inline(always)]
+    fn test<C: Counters>(
+        bvh: &TriangleBvh,
+        (first, count): (usize, usize),
+        ray: &mut Ray,
+        shear: &RayShear,
+        counters: &mut C,
+        crossings: &mut u32,
+    ) -> bool {
+        bvh.test_leaf::<false, true, C>(first, count, ray, shear, counters, |_, _, _| {
+            *crossings += 1;
+            false
+        })
+    }
+
+    // The ray's whole interval, never shrunk: every leaf it enters is
+    // offered once (a tree, without repeats), as on the single ray's walk.
+    #[inline(always)]
+    fn after_leaf(_: &mut u32, _: bool, ray: &Ray) -> f32 {
+        ray.tmax
     }
 }
 
