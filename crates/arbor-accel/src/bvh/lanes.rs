@@ -250,7 +250,7 @@ mod avx2 {
 
     /// Whether this CPU runs the AVX2 path (checked once, then cached by
     /// the standard library). In this crate's unit tests,
-    /// [`super::without_avx2`] can say no on the current thread, so that
+    /// `without_avx2` can say no on the current thread, so that
     /// the portable paths run on an AVX2 machine too.
     #[inline(always)]
     pub(crate) fn has_avx2() -> bool {
@@ -262,8 +262,8 @@ mod avx2 {
     }
 
     /// Whether this CPU runs the AVX-512 paths (AVX-512 F, with AVX2 for
-    /// the code around them). [`super::without_avx512`] and
-    /// [`super::without_avx2`] can say no on the current thread in unit
+    /// the code around them). `without_avx512` and
+    /// `without_avx2` can say no on the current thread in unit
     /// tests.
     #[inline(always)]
     pub(crate) fn has_avx512() -> bool {

@@ -2,7 +2,7 @@
 //!
 //! A ray through an edge or vertex shared by several triangles meets each
 //! of them in the plain watertight test; here each crossing is reported by
-//! exactly one triangle ([`intersect_triangle_owned`]'s ownership rule), so
+//! exactly one triangle ([`crate::intersect_triangle_owned`]'s ownership rule), so
 //! counts are crossing counts: even through a closed mesh, 0 or 2 at a
 //! silhouette edge, never 1.
 
