@@ -222,9 +222,9 @@ proptest! {
 
     /// Streams of camera rays, which the batches trace as packets (of
     /// sixteen on an AVX-512 CPU, of eight with AVX2), answer as brute
-    /// force: the closest distance of every ray, whether it is blocked, and
-    /// its count of crossings (on the builds with spatial splits too, whose
-    /// counts packets leave to single rays). Every other group of
+    /// force: the closest distance of every ray, whether it is blocked, its
+    /// crossings and their count (on the builds with spatial splits too,
+    /// whose crossings packets leave to single rays). Every other group of
     /// sixteen has its second half mirrored into another octant, so that
     /// the sixteen are no packet and each half is traced as one of eight.
     #[test]
@@ -255,12 +255,16 @@ proptest! {
             let batch = mesh.closest_batch(&rays);
             let blocked = mesh.occluded_batch(&rays);
             let counts = mesh.count_batch(&rays);
-            for (((ray, got), blocked), count) in rays.iter().zip(batch).zip(blocked).zip(counts) {
+            let every = mesh.all_hits_batch(&rays);
+            let offsets = every.offsets();
+            let answers = rays.iter().zip(batch).zip(blocked).zip(counts).enumerate();
+            for (i, (((ray, got), blocked), count)) in answers {
                 let want = brute_closest_t(&vertices, &triangles, ray);
                 prop_assert_eq!(got.map(|h| h.hit.t), want, "{} {:?}", name, ray);
                 prop_assert_eq!(blocked, want.is_some(), "{} {:?}", name, ray);
-                let crossings = brute_all_hits(&vertices, &triangles, ray).len() as u32;
-                prop_assert_eq!(count, crossings, "{} {:?}", name, ray);
+                let crossings = brute_all_hits(&vertices, &triangles, ray);
+                prop_assert_eq!(count, crossings.len() as u32, "{} {:?}", name, ray);
+                prop_assert_eq!(every.of(&offsets, i), &crossings[..], "{} {:?}", name, ray);
             }
         }
     }

@@ -16,7 +16,7 @@ mod triangles;
 mod wide;
 
 pub(crate) use packet::{looks_coherent, packet_width, PACKET, PACKET16};
-pub(crate) use triangles::{Closest, Crossings, Occluded, PacketQuery, TriangleBvh};
+pub(crate) use triangles::{Closest, Crossings, EveryHit, Occluded, PacketQuery, TriangleBvh};
 pub use wide::WideBvh;
 
 use std::mem::MaybeUninit;

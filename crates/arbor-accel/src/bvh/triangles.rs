@@ -276,7 +276,7 @@ impl TriangleBvh {
         }
         let mut each = *rays;
         let mut shears: [Option<RayShear>; N] = [None; N];
-        let mut answers = [Q::START; N];
+        let mut answers: [Q::Answer; N] = std::array::from_fn(|_| Q::Answer::default());
         let traced = self.bvh.closest_packet_lanes(
             rays,
             counters,
@@ -509,10 +509,8 @@ impl TriangleBvh {
 /// (`TriangleBvh::test_leaf`): what a lane keeps, how a hit changes it, and
 /// where the lane's ray may still go after a leaf.
 pub(crate) trait PacketQuery {
-    /// One ray's answer.
-    type Answer: Copy + Send + Sync;
-    /// Each ray's answer before its first leaf.
-    const START: Self::Answer;
+    /// One ray's answer, its default the answer before the first leaf.
+    type Answer: Default + Send;
 
     /// Whether the query leaves `bvh`'s rays to single rays.
     fn declined(bvh: &TriangleBvh) -> bool {
@@ -553,8 +551,6 @@ pub(crate) struct Crossings;
 
 impl PacketQuery for Closest {
     type Answer = Option<MeshHit>;
-    const START: Option<MeshHit> = None;
-
     #[inline(always)]
     fn test<C: Counters>(
         bvh: &TriangleBvh,
@@ -581,8 +577,6 @@ impl PacketQuery for Closest {
 
 impl PacketQuery for Occluded {
     type Answer = bool;
-    const START: bool = false;
-
     // The single ray's any-hit test: it stops at the first triangle
     // certainly hit.
     #[inline(always)]
@@ -612,8 +606,6 @@ impl PacketQuery for Occluded {
 
 impl PacketQuery for Crossings {
     type Answer = u32;
-    const START: u32 = 0;
-
     fn declined(bvh: &TriangleBvh) -> bool {
         bvh.has_repeats()
     }
@@ -638,6 +630,39 @@ impl PacketQuery for Crossings {
     // offered once (a tree, without repeats), as on the single ray's walk.
     #[inline(always)]
     fn after_leaf(_: &mut u32, _: bool, ray: &Ray) -> f32 {
+        ray.tmax
+    }
+}
+
+/// Every crossing of each ray, as the mesh's `all_hits` finds them (the
+/// owned test on the whole interval), in the order met; the caller sorts
+/// them. Declined where triangles repeat, as [`Crossings`].
+pub(crate) struct EveryHit;
+
+impl PacketQuery for EveryHit {
+    type Answer = Vec<MeshHit>;
+
+    fn declined(bvh: &TriangleBvh) -> bool {
+        bvh.has_repeats()
+    }
+
+    #[inline(always)]
+    fn test<C: Counters>(
+        bvh: &TriangleBvh,
+        (first, count): (usize, usize),
+        ray: &mut Ray,
+        shear: &RayShear,
+        counters: &mut C,
+        hits: &mut Vec<MeshHit>,
+    ) -> bool {
+        bvh.test_leaf::<false, true, C>(first, count, ray, shear, counters, |prim, hit, _| {
+            hits.push(MeshHit { prim, hit });
+            false
+        })
+    }
+
+    #[inline(always)]
+    fn after_leaf(_: &mut Vec<MeshHit>, _: bool, ray: &Ray) -> f32 {
         ray.tmax
     }
 }
@@ -866,10 +891,10 @@ mod tests {
     }
 
     /// Where spatial splits put a triangle into several leaves, packets
-    /// still answer closest hits and occlusion but leave counts to single
-    /// rays, which tell the crossings' triangles apart.
+    /// still answer closest hits and occlusion but leave counts and every
+    /// hit to single rays, which tell the crossings' triangles apart.
     #[test]
-    fn packets_leave_counts_to_single_rays_where_triangles_repeat() {
+    fn packets_leave_crossings_to_single_rays_where_triangles_repeat() {
         let mesh = crate::test_meshes::slivers();
         let bvh = TriangleBvh::build(&mesh, &TriangleBvh::params().high_quality());
         assert!(bvh.has_repeats(), "no triangle was cut");
@@ -884,6 +909,10 @@ mod tests {
         });
         assert_eq!(
             bvh.packet::<_, _, Crossings>(&rays, &mut crate::NoCounters),
+            None
+        );
+        assert_eq!(
+            bvh.packet::<_, _, EveryHit>(&rays, &mut crate::NoCounters),
             None
         );
         let traced = bvh
@@ -919,15 +948,25 @@ mod tests {
             let counts = bvh
                 .packet::<_, _, Crossings>(packet, &mut crate::NoCounters)
                 .unwrap();
-            for ((ray, &blocked), &count) in packet.iter().zip(&blocked).zip(&counts) {
+            let every = bvh
+                .packet::<_, _, EveryHit>(packet, &mut crate::NoCounters)
+                .unwrap();
+            let answers = packet.iter().zip(&blocked).zip(&counts).zip(every);
+            for (((ray, &blocked), &count), every) in answers {
                 assert_eq!(
                     blocked,
                     bvh.occluded(ray, &mut crate::NoCounters),
                     "{ray:?}"
                 );
-                let mut crossings = 0;
-                bvh.for_each_crossing(ray, &mut crate::NoCounters, |_| crossings += 1);
-                assert_eq!(count, crossings, "{ray:?}");
+                let mut crossings = Vec::new();
+                bvh.for_each_crossing(ray, &mut crate::NoCounters, |hit| crossings.push(hit));
+                assert_eq!(count as usize, crossings.len(), "{ray:?}");
+                // The same crossings, met in another order.
+                let key = |h: &MeshHit| (h.prim, h.hit.t.to_bits());
+                let mut got = every;
+                got.sort_by_key(key);
+                crossings.sort_by_key(key);
+                assert_eq!(got, crossings, "{ray:?}");
                 several += usize::from(count > 1);
             }
             for (ray, got) in packet.iter().zip(got) {

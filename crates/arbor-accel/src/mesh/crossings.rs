@@ -8,8 +8,8 @@
 
 use rayon::prelude::*;
 
-use super::{MeshAccel, MeshHit, PER_TASK};
-use crate::bvh::Crossings;
+use super::{packet_answers, Index, MeshAccel, MeshHit, PER_TASK};
+use crate::bvh::{Crossings, EveryHit, PACKET, PACKET16};
 use crate::{Counters, NoCounters, Ray};
 
 /// Every hit of a batch of rays, in ray order: ray `i`'s hits are the
@@ -56,8 +56,7 @@ impl MeshAccel {
     pub fn all_hits_into<C: Counters>(&self, ray: &Ray, counters: &mut C, out: &mut Vec<MeshHit>) {
         let start = out.len();
         self.for_each_crossing(ray, counters, |hit| out.push(hit));
-        let mine = &mut out[start..];
-        mine.sort_unstable_by(|x, y| x.hit.t.total_cmp(&y.hit.t).then(x.prim.cmp(&y.prim)));
+        sort_hits(&mut out[start..]);
         if self.offers_repeats() {
             // A triangle offered again gives the same answer (the test sees
             // the same ray), so its copies sit side by side after sorting.
@@ -106,17 +105,44 @@ impl MeshAccel {
         n
     }
 
-    /// [`MeshAccel::all_hits`] for every ray, in parallel.
+    /// [`MeshAccel::all_hits`] for every ray, in parallel (camera-ray
+    /// streams in packets on `bvh-wide`, as in
+    /// [`MeshAccel::closest_batch_into`]).
     pub fn all_hits_batch(&self, rays: &[Ray]) -> AllHits {
+        let packets = match &self.index {
+            Index::Wide(bvh) if !bvh.has_repeats() && crate::bvh::looks_coherent(rays) => Some(bvh),
+            _ => None,
+        };
         let per_chunk: Vec<(Vec<u32>, Vec<MeshHit>)> = rays
             .par_chunks(PER_TASK)
             .map(|chunk| {
                 let mut counts = Vec::with_capacity(chunk.len());
                 let mut hits = Vec::new();
-                for ray in chunk {
+                let single = |ray: &Ray, counts: &mut Vec<u32>, hits: &mut Vec<MeshHit>| {
                     let before = hits.len();
-                    self.all_hits_into(ray, &mut NoCounters, &mut hits);
+                    self.all_hits_into(ray, &mut NoCounters, hits);
                     counts.push((hits.len() - before) as u32);
+                };
+                match packets {
+                    Some(bvh) => {
+                        for group in chunk.chunks(crate::bvh::packet_width()) {
+                            if let Some(lanes) = packet_answers::<PACKET16, EveryHit>(bvh, group) {
+                                append_lanes(lanes, &mut counts, &mut hits);
+                                continue;
+                            }
+                            for half in group.chunks(PACKET) {
+                                match packet_answers::<PACKET, EveryHit>(bvh, half) {
+                                    Some(lanes) => append_lanes(lanes, &mut counts, &mut hits),
+                                    None => half
+                                        .iter()
+                                        .for_each(|ray| single(ray, &mut counts, &mut hits)),
+                                }
+                            }
+                        }
+                    }
+                    None => chunk
+                        .iter()
+                        .for_each(|ray| single(ray, &mut counts, &mut hits)),
                 }
                 (counts, hits)
             })
@@ -146,5 +172,24 @@ impl MeshAccel {
     /// If `out` and `rays` differ in length.
     pub fn count_batch_into(&self, rays: &[Ray], out: &mut [u32]) {
         self.batch_into::<Crossings>(rays, out, |ray| self.count(ray));
+    }
+}
+
+/// Sorts one ray's hits as [`MeshAccel::all_hits`] returns them: by
+/// distance, ties by triangle index.
+fn sort_hits(hits: &mut [MeshHit]) {
+    hits.sort_unstable_by(|x, y| x.hit.t.total_cmp(&y.hit.t).then(x.prim.cmp(&y.prim)));
+}
+
+/// Appends a packet's crossings, lane after lane, each lane's sorted.
+fn append_lanes<const N: usize>(
+    lanes: [Vec<MeshHit>; N],
+    counts: &mut Vec<u32>,
+    hits: &mut Vec<MeshHit>,
+) {
+    for mut lane in lanes {
+        sort_hits(&mut lane);
+        counts.push(lane.len() as u32);
+        hits.extend(lane);
     }
 }

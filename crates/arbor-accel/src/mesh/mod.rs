@@ -126,20 +126,28 @@ enum Index {
     Generic(Accel, Vec<[Vec3; 3]>),
 }
 
-/// Answers `rays` as one packet of `N` into `slots` when they are `N` rays
-/// that form one on this CPU ([`TriangleBvh::packet`]); `false`,
-/// with nothing written, otherwise.
+/// The answers of query `Q` for `rays` as one packet of `N`, when they are
+/// `N` rays that form one on this CPU ([`TriangleBvh::packet`]).
+fn packet_answers<const N: usize, Q: PacketQuery>(
+    bvh: &TriangleBvh,
+    rays: &[Ray],
+) -> Option<[Q::Answer; N]> {
+    let rays = <&[Ray; N]>::try_from(rays).ok()?;
+    bvh.packet::<N, _, Q>(rays, &mut NoCounters)
+}
+
+/// Answers `rays` as one packet of `N` into `slots` when they form one
+/// ([`packet_answers`]); `false`, with nothing written, otherwise.
 fn trace_packet<const N: usize, Q: PacketQuery>(
     bvh: &TriangleBvh,
     rays: &[Ray],
     slots: &mut [Q::Answer],
 ) -> bool {
-    let Ok(rays) = <&[Ray; N]>::try_from(rays) else {
-        return false;
-    };
-    match bvh.packet::<N, _, Q>(rays, &mut NoCounters) {
+    match packet_answers::<N, Q>(bvh, rays) {
         Some(answers) => {
-            slots.copy_from_slice(&answers);
+            for (slot, answer) in slots.iter_mut().zip(answers) {
+                *slot = answer;
+            }
             true
         }
         None => false,
