@@ -531,8 +531,14 @@ pub(crate) trait PacketQuery {
     ) -> bool;
 
     /// The lane's culling distance after a leaf, whose test ended early
-    /// when `stopped`.
-    fn after_leaf(answer: &mut Self::Answer, stopped: bool, ray: &Ray) -> f32;
+    /// when `stopped`: by default the ray's `tmax` (shrunk by the closest
+    /// hit; the whole interval for the crossings, so that every leaf the
+    /// ray enters is offered once, as on the single ray's walk).
+    #[inline(always)]
+    fn after_leaf(answer: &mut Self::Answer, stopped: bool, ray: &Ray) -> f32 {
+        let _ = (answer, stopped);
+        ray.tmax
+    }
 }
 
 /// Each ray's closest hit, as [`TriangleBvh::closest`] finds it.
@@ -567,11 +573,6 @@ impl PacketQuery for Closest {
             ray.tmax = ray.tmax.min(hit.t);
             false
         })
-    }
-
-    #[inline(always)]
-    fn after_leaf(_: &mut Option<MeshHit>, _: bool, ray: &Ray) -> f32 {
-        ray.tmax
     }
 }
 
@@ -625,13 +626,6 @@ impl PacketQuery for Crossings {
             false
         })
     }
-
-    // The ray's whole interval, never shrunk: every leaf it enters is
-    // offered once (a tree, without repeats), as on the single ray's walk.
-    #[inline(always)]
-    fn after_leaf(_: &mut u32, _: bool, ray: &Ray) -> f32 {
-        ray.tmax
-    }
 }
 
 /// Every crossing of each ray, as the mesh's `all_hits` finds them (the
@@ -659,11 +653,6 @@ impl PacketQuery for EveryHit {
             hits.push(MeshHit { prim, hit });
             false
         })
-    }
-
-    #[inline(always)]
-    fn after_leaf(_: &mut Vec<MeshHit>, _: bool, ray: &Ray) -> f32 {
-        ray.tmax
     }
 }
 
