@@ -61,6 +61,7 @@ mod morton;
 mod obb;
 mod primitives;
 mod ray;
+mod rounding;
 mod sphere;
 #[cfg(test)]
 mod test_meshes;
@@ -97,6 +98,7 @@ pub(crate) use numerics::*;
 /// `docs/acceleration.md` ("Robustness") derives the bounds.
 pub mod numerics {
     pub use crate::aabb::{widen_exit, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
+    pub use crate::rounding::{f32_at_or_above, f32_at_or_below};
     pub use crate::triangle::{
         clip_triangle_bounds, intersect_triangle_owned, intersect_triangle_sheared, is_degenerate,
         RayShear,

@@ -5,6 +5,7 @@
 
 use glam::{DVec3, Vec3};
 
+use crate::rounding::{f32_at_or_above, f32_at_or_below};
 use crate::util::widen_up;
 use crate::{Aabb, PrimitiveId, Primitives, Ray};
 
@@ -782,40 +783,22 @@ pub fn clip_triangle_bounds(tri: [Vec3; 3], clip: &Aabb) -> Option<Aabb> {
     (!b.is_empty()).then_some(b)
 }
 
-/// The next `f32` above `x`.
-pub(crate) fn next_up(x: f32) -> f32 {
-    x.next_up()
-}
-
-/// The next `f32` below `x`.
-pub(crate) fn next_down(x: f32) -> f32 {
-    x.next_down()
-}
-
 /// The largest `f32` vector not above `v`, per component.
 fn round_down(v: DVec3) -> Vec3 {
-    let f = |x: f64| {
-        let y = x as f32;
-        if f64::from(y) > x {
-            next_down(y)
-        } else {
-            y
-        }
-    };
-    Vec3::new(f(v.x), f(v.y), f(v.z))
+    Vec3::new(
+        f32_at_or_below(v.x),
+        f32_at_or_below(v.y),
+        f32_at_or_below(v.z),
+    )
 }
 
 /// The smallest `f32` vector not below `v`, per component.
 fn round_up(v: DVec3) -> Vec3 {
-    let f = |x: f64| {
-        let y = x as f32;
-        if f64::from(y) < x {
-            next_up(y)
-        } else {
-            y
-        }
-    };
-    Vec3::new(f(v.x), f(v.y), f(v.z))
+    Vec3::new(
+        f32_at_or_above(v.x),
+        f32_at_or_above(v.y),
+        f32_at_or_above(v.z),
+    )
 }
 
 /// The case of the test `an_underflowing_bound_leaves_the_signs_to_f64`:

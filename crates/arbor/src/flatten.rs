@@ -21,6 +21,7 @@
 use crate::hash_map::HashMap;
 use std::sync::Arc;
 
+use arbor_accel::numerics::{f32_at_or_above, f32_at_or_below};
 use arbor_accel::{Aabb, Vec3};
 use glam::{DMat4, DVec2, DVec3};
 use rayon::prelude::*;
@@ -609,24 +610,8 @@ fn triangle_candidate(p: [DVec3; 3], ray: &Ray, closed: bool) -> Option<Candidat
 
 /// Rounds an `f64` box outward to `f32` and grows it by `pad` on every side.
 pub fn to_f32_box(min: DVec3, max: DVec3, pad: f64) -> Aabb {
-    let down = |x: f64| {
-        let x = x - pad;
-        let f = x as f32;
-        if f as f64 > x {
-            f.next_down()
-        } else {
-            f
-        }
-    };
-    let up = |x: f64| {
-        let x = x + pad;
-        let f = x as f32;
-        if (f as f64) < x {
-            f.next_up()
-        } else {
-            f
-        }
-    };
+    let down = |x: f64| f32_at_or_below(x - pad);
+    let up = |x: f64| f32_at_or_above(x + pad);
     Aabb::new(
         Vec3::new(down(min.x), down(min.y), down(min.z)),
         Vec3::new(up(max.x), up(max.y), up(max.z)),

@@ -42,6 +42,7 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 // The accelerators' `f32` ray, which traversal uses; the queries take `f64` [`Ray`]s.
+use arbor_accel::numerics::f32_at_or_above;
 use arbor_accel::Ray as TraversalRay;
 use arbor_accel::{
     Aabb, Accel, AccelKind, Accelerator, BoundingSphere, Counters, NoCounters, Obb, RayCounts, Vec3,
@@ -671,9 +672,7 @@ fn cull_distance(t: f64) -> f32 {
     if t == f64::INFINITY {
         return f32::INFINITY;
     }
-    let f = t as f32;
-    let up = if (f as f64) < t { f.next_up() } else { f };
-    up.next_up()
+    f32_at_or_above(t).next_up()
 }
 
 #[cfg(test)]
