@@ -1,7 +1,7 @@
 use glam::Vec3;
 
+use crate::ray::Ray;
 use crate::util::widen_up;
-use crate::Ray;
 
 /// Unit roundoff of `f32`: the largest relative error of one rounding.
 const F32_UNIT_ROUNDOFF: f32 = f32::EPSILON * 0.5;

@@ -1,10 +1,15 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::{
-    Bvh, BvhBuilder, BvhParams, Counters, Grid, GridParams, KdParams, KdTree, Layout, List,
-    PrimitiveId, Primitives, Ray, WideBvh,
-};
+use crate::bvh2::{Bvh, BvhBuilder, BvhParams};
+use crate::counters::Counters;
+use crate::grid::{Grid, GridParams};
+use crate::kdtree::{KdParams, KdTree};
+use crate::layout::Layout;
+use crate::list::List;
+use crate::primitives::{PrimitiveId, Primitives};
+use crate::ray::Ray;
+use crate::wide::WideBvh;
 
 /// What every acceleration structure answers: the candidates a ray may hit.
 ///
@@ -298,7 +303,7 @@ impl Accel {
     }
 
     /// The structure's shape for drawing, in the numbering its traversal
-    /// reports to a [`crate::Recorder`] (see [`Layout::index`]).
+    /// reports to a [`crate::counters::Recorder`] (see [`Layout::index`]).
     pub fn layout(&self) -> Layout {
         match self {
             Accel::List(_) => Layout::List,

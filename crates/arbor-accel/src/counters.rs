@@ -5,7 +5,7 @@
 //! [`Counters::RECORDS`], so for every other implementation they are not
 //! even compiled in.
 
-use crate::PrimitiveId;
+use crate::primitives::PrimitiveId;
 
 /// Receives one call per node visited and per primitive test.
 pub trait Counters {
@@ -18,7 +18,7 @@ pub trait Counters {
     /// A primitive was handed to the caller's exact test.
     fn test(&mut self);
     /// With [`Counters::RECORDS`]: node `node` (in the structure's
-    /// traversal numbering, see [`crate::Layout::index`]) was visited
+    /// traversal numbering, see [`crate::layout::Layout::index`]) was visited
     /// (`entered`, right after the matching [`Counters::node`]) or its box
     /// was tested and skipped (`!entered`: no [`Counters::node`] call).
     #[inline(always)]
@@ -98,7 +98,7 @@ impl std::ops::AddAssign for RayCounts {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Visit {
     /// The node, in the structure's traversal numbering
-    /// ([`crate::Layout::index`] gives its index in the structure's layout).
+    /// ([`crate::layout::Layout::index`] gives its index in the structure's layout).
     pub node: u32,
     /// Whether traversal went inside (counted as a node) or skipped it.
     pub entered: bool,
@@ -106,7 +106,7 @@ pub struct Visit {
 
 /// Records a ray's traversal in order: every visit and skipped box, every
 /// primitive tested, and the counts [`RayCounts`] would give, for every
-/// [`crate::Accel`] structure. (`MeshAccel`'s triangle-specialised queries
+/// [`crate::accel::Accel`] structure. (`MeshAccel`'s triangle-specialised queries
 /// count but do not record their triangle tests.)
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Recorder {

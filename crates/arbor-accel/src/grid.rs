@@ -5,11 +5,14 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::aabb::Aabb;
+use crate::accel::{AccelStats, Accelerator};
 use crate::counters::count_node;
+use crate::counters::Counters;
+use crate::layout::{GridLayout, Layout};
+use crate::primitives::{PrimitiveId, Primitives};
+use crate::ray::Ray;
 use crate::util::{offer_any, offer_closest, prepare, Mailbox};
-use crate::{
-    Aabb, AccelStats, Accelerator, Counters, GridLayout, Layout, PrimitiveId, Primitives, Ray,
-};
 
 /// Grid build parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -420,8 +423,10 @@ impl Accelerator for Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::counters::{NoCounters, RayCounts};
+    use crate::list::List;
     use crate::test_meshes::assert_agrees_with_list;
-    use crate::{List, NoCounters, RayCounts, TriangleMesh};
+    use crate::triangle::mesh::TriangleMesh;
 
     fn soup() -> TriangleMesh {
         crate::test_meshes::soup(300)

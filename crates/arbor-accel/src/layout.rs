@@ -1,8 +1,9 @@
 //! What a built structure looks like, for drawing it and for naming the
-//! nodes a [`crate::Recorder`] saw: per node its box, depth, children and
+//! nodes a [`crate::counters::Recorder`] saw: per node its box, depth, children and
 //! primitive count (the k-d tree's split too), or the grid's cells.
 
-use crate::{Aabb, Vec3};
+use crate::aabb::Aabb;
+use glam::Vec3;
 
 /// One node of a tree, as drawn (by default: an empty box at the root's
 /// depth, no children, no primitives).
@@ -73,7 +74,7 @@ pub enum Layout {
 
 impl Layout {
     /// The index into [`Layout::Tree`]'s `nodes` (or the cell index) of the
-    /// node traversal reported as `number` ([`crate::Visit::node`]); the
+    /// node traversal reported as `number` ([`crate::counters::Visit::node`]); the
     /// same number except for the wide BVH's leaves.
     pub fn index(&self, number: u32) -> u32 {
         match self {

@@ -29,33 +29,51 @@
 //! # Ok::<(), arbor_accel::MeshError>(())
 //! ```
 //!
-//! Every structure ([`AccelKind`] names them: brute force [`List`], [`Bvh`]
-//! with five builders ([`BvhBuilder`]), the 8-wide [`WideBvh`], the uniform
-//! [`Grid`] and the SAH [`KdTree`]) answers exactly what brute force
-//! answers; they differ only in speed. They index *any* set of primitives
-//! through the [`Primitives`] trait, and the caller supplies the exact
-//! primitive test as a closure at query time ([`Accelerator`]), so the same
-//! structure serves triangle soups, analytic spheres or whole transformed
-//! instances ([`Accel`] holds any of them). Traversal runs in `f32`,
-//! conservatively: a box test never rejects a box that the ray touches in
-//! exact arithmetic ([`Aabb::intersect`]), so a caller whose exact test
-//! reports hits only where its primitive really is loses none
-//! ([`intersect_triangle`] guarantees this for triangles; [`numerics`] has
-//! its parts for callers writing their own loops). Bounding volumes:
-//! [`Aabb`], [`BoundingSphere`], [`Obb`]. The design, error bounds and
-//! constants are written up in `docs/acceleration.md`, the queries' rules
-//! and file formats in `docs/queries.md`.
+//! Every structure ([`AccelKind`] names them: brute force [`list::List`],
+//! the binary [`bvh2::Bvh`] with five builders ([`bvh2::BvhBuilder`]), the
+//! 8-wide [`wide::WideBvh`], the uniform [`grid::Grid`] and the SAH
+//! [`kdtree::KdTree`]) answers exactly what brute force answers; they differ
+//! only in speed. They index *any* set of primitives through the
+//! [`Primitives`] trait, and the caller supplies the exact primitive test as
+//! a closure at query time ([`Accelerator`]), so the same structure serves
+//! triangle soups, analytic spheres or whole transformed instances
+//! ([`Accel`] holds any of them). Traversal runs in `f32`, conservatively: a
+//! box test never rejects a box that the ray touches in exact arithmetic
+//! ([`Aabb::intersect`]), so a caller whose exact test reports hits only
+//! where its primitive really is loses none ([`intersect_triangle`]
+//! guarantees this for triangles; [`numerics`] has its parts for callers
+//! writing their own loops). Bounding volumes: [`Aabb`], [`BoundingSphere`],
+//! [`Obb`]. The design, error bounds and constants are written up in
+//! `docs/acceleration.md`, the queries' rules and file formats in
+//! `docs/queries.md`.
+//!
+//! ## Where things are
+//!
+//! The root re-exports what a caller of the common path needs: rays and
+//! bounds, [`AccelKind`] and [`Accel`] to build any structure, the
+//! [`Accelerator`] queries, [`MeshAccel`] and its answers, the triangle test
+//! and mesh, and the statistics counters. Each structure form has its own
+//! public module, one folder or file per form:
+//!
+//! | module | what it holds |
+//! | --- | --- |
+//! | [`bvh2`] | the binary BVH: node layout, traversal, and its builders (`topdown.rs`: centre, median, binned SAH; `sweep.rs`; `ploc.rs`; `spatial.rs`: spatial splits) |
+//! | [`wide`] | the 8-wide BVH collapsed from it, its SIMD box lanes and the ray packets |
+//! | [`grid`], [`kdtree`], [`list`] | the uniform grid (3D-DDA), the SAH k-d tree, brute force |
+//! | [`counters`], [`layout`] | traversal statistics and recording; a built structure's shape for drawing |
+//! | `triangle/` | the watertight test (`watertight.rs`), its SIMD edge stage (`lanes.rs`), [`TriangleMesh`] (`mesh.rs`), exact clipping (`clip.rs`) |
+//! | `mesh/` | [`MeshAccel`] and its queries, with `TriangleBvh` (the wide tree owning its triangles) and the packet queries |
 
 #![warn(missing_docs)]
 
 mod aabb;
 mod accel;
-mod bvh;
-mod counters;
-mod grid;
-mod kdtree;
-mod layout;
-mod list;
+pub mod bvh2;
+pub mod counters;
+pub mod grid;
+pub mod kdtree;
+pub mod layout;
+pub mod list;
 mod mesh;
 mod morton;
 mod obb;
@@ -66,30 +84,24 @@ mod sphere;
 #[cfg(test)]
 mod test_meshes;
 mod triangle;
-mod triangle_lanes;
 mod util;
+pub mod wide;
 
 pub use aabb::Aabb;
 pub use accel::{
     Accel, AccelKind, AccelParams, AccelStats, Accelerator, BuildQuality, UnknownAccel,
 };
-pub use bvh::{Bvh, BvhBuilder, BvhNode, BvhParams, WideBvh};
-pub use counters::{Counters, NoCounters, RayCounts, Recorder, Visit};
-pub use grid::{Grid, GridParams};
-pub use kdtree::{KdParams, KdTree};
-pub use layout::{GridLayout, Layout, LayoutNode};
-pub use list::List;
+pub use bvh2::{Bvh, BvhBuilder, BvhNode, BvhParams};
+pub use counters::{Counters, NoCounters, RayCounts, Recorder};
+pub use layout::{Layout, LayoutNode};
 pub use mesh::{AllHits, ClosestPoint, MeshAccel, MeshError, MeshHit, INSIDE_DIRECTION};
 pub use obb::Obb;
 pub use primitives::{PrimitiveId, Primitives};
 pub use ray::Ray;
 pub use sphere::BoundingSphere;
-pub use triangle::{intersect_triangle, TriangleHit, TriangleMesh};
-
-// Inside the crate, the numerics and the mesh-specialised structure by
-// their short names.
-pub(crate) use bvh::TriangleBvh;
-pub(crate) use numerics::*;
+pub use triangle::mesh::TriangleMesh;
+pub use triangle::watertight::{intersect_triangle, TriangleHit};
+pub use wide::WideBvh;
 
 /// The exact arithmetic under the structures, for callers that write their
 /// own traversal or triangle loop: the watertight test with the ray's shear
@@ -99,9 +111,9 @@ pub(crate) use numerics::*;
 pub mod numerics {
     pub use crate::aabb::{widen_exit, SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
     pub use crate::rounding::{f32_at_or_above, f32_at_or_below};
-    pub use crate::triangle::{
-        clip_triangle_bounds, intersect_triangle_owned, intersect_triangle_sheared, is_degenerate,
-        RayShear,
+    pub use crate::triangle::clip::clip_triangle_bounds;
+    pub use crate::triangle::watertight::{
+        intersect_triangle_owned, intersect_triangle_sheared, is_degenerate, RayShear,
     };
 }
 

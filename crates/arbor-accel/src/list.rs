@@ -1,5 +1,11 @@
+//! Brute force: every primitive tested against every ray, the reference
+//! every other structure must agree with.
+
+use crate::accel::{AccelStats, Accelerator};
 use crate::counters::count_test;
-use crate::{AccelStats, Accelerator, Counters, PrimitiveId, Primitives, Ray};
+use crate::counters::Counters;
+use crate::primitives::{PrimitiveId, Primitives};
+use crate::ray::Ray;
 
 /// Brute force: every primitive is tested against every ray. The reference
 /// that every other structure is tested against.

@@ -8,7 +8,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::Aabb;
+use crate::aabb::Aabb;
 
 /// Cells per axis, less one: 21 bits a coordinate fill 63 bits.
 const CELLS: f32 = 2_097_151.0;

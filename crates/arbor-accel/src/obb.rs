@@ -3,7 +3,8 @@
 
 use glam::{DMat3, DVec3, Vec3};
 
-use crate::{Aabb, Ray};
+use crate::aabb::Aabb;
+use crate::ray::Ray;
 
 /// An oriented box: the points `p` with `|axes[i] · (p - center)| <= half[i]`
 /// for each `i`. The axes are orthonormal up to rounding; the definition as an

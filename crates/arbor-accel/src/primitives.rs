@@ -1,4 +1,5 @@
-use crate::{Aabb, Vec3};
+use crate::aabb::Aabb;
+use glam::Vec3;
 
 /// The index of a primitive in the set a structure was built over
 /// (`0..len()`), as every API that names a primitive takes and returns it.

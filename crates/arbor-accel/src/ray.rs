@@ -28,7 +28,7 @@ impl Ray {
         }
     }
 
-    /// The per-component reciprocal of `dir` for [`crate::Aabb::intersect`]
+    /// The per-component reciprocal of `dir` for [`crate::aabb::Aabb::intersect`]
     /// and the structures' plane distances: infinite for zero components
     /// (the ray is parallel to that axis), and NaN for nonzero components so
     /// small (subnormal) that their reciprocal overflows.

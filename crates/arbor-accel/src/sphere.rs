@@ -4,7 +4,8 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::{Aabb, Ray};
+use crate::aabb::Aabb;
+use crate::ray::Ray;
 
 /// Relative padding applied to radii so that `f32` rounding of the centre and
 /// radius can never leave a fitted point outside.

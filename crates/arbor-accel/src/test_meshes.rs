@@ -1,6 +1,11 @@
 //! Meshes and checks the unit tests of several structures share.
 
-use crate::{Accelerator, List, NoCounters, Ray, TriangleMesh, Vec3};
+use crate::accel::Accelerator;
+use crate::counters::NoCounters;
+use crate::list::List;
+use crate::ray::Ray;
+use crate::triangle::mesh::TriangleMesh;
+use glam::Vec3;
 
 /// `n` triangles of assorted sizes and slopes scattered through a box of
 /// side 10 (an irrational stride keeps them apart without a generator).

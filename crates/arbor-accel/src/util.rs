@@ -3,9 +3,12 @@
 
 use rayon::prelude::*;
 
+use crate::aabb::Aabb;
 use crate::aabb::SLAB_TFAR_SCALE;
 use crate::counters::count_test;
-use crate::{Aabb, Counters, Primitives, Ray};
+use crate::counters::Counters;
+use crate::primitives::Primitives;
+use crate::ray::Ray;
 
 /// Relative widening that covers the three roundings of a slab distance
 /// `(plane - origin) * inv_dir` (see [`SLAB_TFAR_SCALE`]).

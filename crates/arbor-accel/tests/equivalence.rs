@@ -4,9 +4,10 @@
 //! (except by trees with spatial splits, which may hold one in several
 //! leaves).
 
+use arbor_accel::list::List;
 use arbor_accel::{
-    Aabb, Accel, AccelKind, AccelParams, Accelerator, BuildQuality, List, NoCounters, Primitives,
-    Ray, TriangleMesh, Vec3,
+    Aabb, Accel, AccelKind, AccelParams, Accelerator, BuildQuality, NoCounters, Primitives, Ray,
+    TriangleMesh, Vec3,
 };
 use proptest::prelude::*;
 

@@ -24,7 +24,8 @@
 use rayon::prelude::*;
 
 use super::{KdNode, KdParams};
-use crate::{Aabb, Primitives};
+use crate::aabb::Aabb;
+use crate::primitives::Primitives;
 
 /// Event kinds, in the order they are sorted at equal positions: a reference
 /// that ends at a plane is below it, one lying in it is decided by the
@@ -510,8 +511,9 @@ pub(super) fn build_into<P: Primitives + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::triangle::mesh::TriangleMesh;
     use crate::util::prepare;
-    use crate::{TriangleMesh, Vec3};
+    use glam::Vec3;
 
     /// 300 triangles of assorted sizes and slopes, some axis-aligned (flat
     /// boxes give planar events), a few sharing the same planes.

@@ -11,8 +11,10 @@
 mod build;
 mod traverse;
 
+use crate::aabb::Aabb;
+use crate::layout::{Layout, LayoutNode};
+use crate::primitives::Primitives;
 use crate::util::prepare;
-use crate::{Aabb, Layout, LayoutNode, Primitives};
 
 /// Traversal stack entries. The build's depth limit stays below this (a
 /// path pushes at most one entry per level).
@@ -263,8 +265,13 @@ impl KdTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::Accelerator;
+    use crate::counters::NoCounters;
+    use crate::list::List;
+    use crate::ray::Ray;
     use crate::test_meshes::assert_agrees_with_list;
-    use crate::{Accelerator, List, NoCounters, Ray, TriangleMesh, Vec3};
+    use crate::triangle::mesh::TriangleMesh;
+    use glam::Vec3;
 
     fn soup() -> TriangleMesh {
         crate::test_meshes::soup(400)

@@ -3,9 +3,12 @@
 use std::mem::MaybeUninit;
 
 use super::{KdNode, KdTree, STACK_SIZE};
+use crate::accel::{AccelStats, Accelerator};
+use crate::counters::Counters;
 use crate::counters::{count_node, skip_node};
+use crate::primitives::PrimitiveId;
+use crate::ray::Ray;
 use crate::util::{offer_any, offer_closest, widen_down, widen_up, Mailbox};
-use crate::{AccelStats, Accelerator, Counters, PrimitiveId, Ray};
 
 /// The smaller of `a` and `b`, or `a` when `b` is NaN: one `minss`
 /// (`f32::min` also handles a NaN `a`, which never occurs here, at the cost

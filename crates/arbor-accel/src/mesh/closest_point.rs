@@ -9,8 +9,11 @@
 //! account for).
 
 use super::{MeshAccel, PER_TASK};
-use crate::{morton, Bvh, PrimitiveId, Vec3};
+use crate::bvh2::Bvh;
+use crate::morton;
+use crate::primitives::PrimitiveId;
 use glam::DVec3;
+use glam::Vec3;
 
 /// The closest point of a mesh to a query point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -261,7 +264,8 @@ fn degenerate_weights(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{test_meshes, AccelKind};
+    use crate::accel::AccelKind;
+    use crate::test_meshes;
 
     fn soup_mesh(n: u32) -> MeshAccel {
         let soup = test_meshes::soup(n);

@@ -2,15 +2,17 @@
 //!
 //! A ray through an edge or vertex shared by several triangles meets each
 //! of them in the plain watertight test; here each crossing is reported by
-//! exactly one triangle ([`crate::intersect_triangle_owned`]'s ownership rule), so
+//! exactly one triangle ([`crate::triangle::watertight::intersect_triangle_owned`]'s ownership rule), so
 //! counts are crossing counts: even through a closed mesh, 0 or 2 at a
 //! silhouette edge, never 1.
 
 use rayon::prelude::*;
 
+use super::packet_query::{Crossings, EveryHit};
 use super::{packet_answers, Index, MeshAccel, MeshHit, PER_TASK};
-use crate::bvh::{Crossings, EveryHit, PACKET, PACKET16};
-use crate::{Counters, NoCounters, Ray};
+use crate::counters::{Counters, NoCounters};
+use crate::ray::Ray;
+use crate::wide::packet::{PACKET, PACKET16};
 
 /// Every hit of a batch of rays, in ray order: ray `i`'s hits are the
 /// `counts[i]` entries of `hits` after those of the rays before it.
@@ -110,7 +112,9 @@ impl MeshAccel {
     /// [`MeshAccel::closest_batch_into`]).
     pub fn all_hits_batch(&self, rays: &[Ray]) -> AllHits {
         let packets = match &self.index {
-            Index::Wide(bvh) if !bvh.has_repeats() && crate::bvh::looks_coherent(rays) => Some(bvh),
+            Index::Wide(bvh) if !bvh.has_repeats() && crate::wide::packet::looks_coherent(rays) => {
+                Some(bvh)
+            }
             _ => None,
         };
         let per_chunk: Vec<(Vec<u32>, Vec<MeshHit>)> = rays
@@ -125,7 +129,7 @@ impl MeshAccel {
                 };
                 match packets {
                     Some(bvh) => {
-                        for group in chunk.chunks(crate::bvh::packet_width()) {
+                        for group in chunk.chunks(crate::wide::packet::packet_width()) {
                             if let Some(lanes) = packet_answers::<PACKET16, EveryHit>(bvh, group) {
                                 append_lanes(lanes, &mut counts, &mut hits);
                                 continue;

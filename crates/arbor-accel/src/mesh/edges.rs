@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::Vec3;
+use glam::Vec3;
 
 /// Every use of every edge, sorted so that an edge's uses are neighbours.
 pub(crate) struct EdgeUses {

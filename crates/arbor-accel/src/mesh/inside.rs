@@ -18,7 +18,10 @@ use rayon::prelude::*;
 use super::edges::EdgeUses;
 use super::side_grid::Side;
 use super::{MeshAccel, PER_TASK};
-use crate::{morton, PrimitiveId, Ray, Vec3};
+use crate::morton;
+use crate::primitives::PrimitiveId;
+use crate::ray::Ray;
+use glam::Vec3;
 
 /// The direction of the inside test's ray: fixed, so answers are
 /// deterministic; away from the axes and diagonals, so that rays from

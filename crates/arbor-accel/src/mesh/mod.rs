@@ -14,19 +14,28 @@ mod closest_point;
 mod crossings;
 mod edges;
 mod inside;
+pub(crate) mod packet_query;
 mod side_grid;
+pub(crate) mod triangle_bvh;
 mod winding;
 
 use std::sync::OnceLock;
 
 use rayon::prelude::*;
 
-use crate::bvh::{Closest, Occluded, PacketQuery, PACKET, PACKET16};
-use crate::{
-    intersect_triangle_owned, intersect_triangle_sheared, Accel, AccelKind, AccelParams,
-    AccelStats, Accelerator, Bvh, Counters, NoCounters, PrimitiveId, Ray, RayShear, TriangleBvh,
-    TriangleHit, TriangleMesh, Vec3,
+use crate::accel::{Accel, AccelKind, AccelParams, AccelStats, Accelerator};
+use crate::bvh2::Bvh;
+use crate::counters::{Counters, NoCounters};
+use crate::mesh::triangle_bvh::TriangleBvh;
+use crate::primitives::PrimitiveId;
+use crate::ray::Ray;
+use crate::triangle::mesh::TriangleMesh;
+use crate::triangle::watertight::{
+    intersect_triangle_owned, intersect_triangle_sheared, RayShear, TriangleHit,
 };
+use crate::wide::packet::{PACKET, PACKET16};
+use glam::Vec3;
+use packet_query::{Closest, Occluded, PacketQuery};
 
 pub use closest_point::ClosestPoint;
 pub use crossings::AllHits;
@@ -352,8 +361,8 @@ impl MeshAccel {
     ) {
         assert_eq!(rays.len(), out.len(), "one answer slot per ray");
         match &self.index {
-            Index::Wide(bvh) if crate::bvh::looks_coherent(rays) => {
-                let packet = crate::bvh::packet_width();
+            Index::Wide(bvh) if crate::wide::packet::looks_coherent(rays) => {
+                let packet = crate::wide::packet::packet_width();
                 out.par_chunks_mut(packet)
                     .zip(rays.par_chunks(packet))
                     .with_min_len(PER_TASK / packet)
@@ -410,7 +419,7 @@ impl MeshAccel {
 
     /// Whether traversal may meet a triangle more than once (the grid and
     /// the k-d tree place a triangle in every cell or leaf it overlaps, a
-    /// [`BuildQuality::High`](crate::BuildQuality) tree in every leaf that
+    /// [`BuildQuality::High`](crate::accel::BuildQuality) tree in every leaf that
     /// holds a part of it); the crossing queries then drop the repeats.
     pub fn offers_repeats(&self) -> bool {
         match &self.index {
@@ -473,8 +482,8 @@ impl MeshAccel {
         self.points.get_or_init(|| {
             Bvh::build(
                 &self.mesh,
-                crate::BvhBuilder::BinnedSah,
-                &crate::BvhParams::default(),
+                crate::bvh2::BvhBuilder::BinnedSah,
+                &crate::bvh2::BvhParams::default(),
             )
         })
     }

@@ -23,7 +23,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::INSIDE_DIRECTION;
-use crate::Vec3;
+use glam::Vec3;
 
 /// Cells per triangle the grid aims at: finer grids leave fewer points to
 /// the ray but cost more to build and more cache (measured in
@@ -301,7 +301,8 @@ fn clip_to_slab(t: [DVec3; 3], bottom: f64, top: f64) -> Option<(DVec3, DVec3)> 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{AccelKind, MeshAccel};
+    use crate::accel::AccelKind;
+    use crate::mesh::MeshAccel;
 
     /// The cube `[0, 1]^3`, each face an `n` x `n` grid of quads with its
     /// own vertices (welded by position), facing out; with `hole`, less its

@@ -28,7 +28,9 @@
 use glam::DVec3;
 
 use super::{MeshAccel, PER_TASK};
-use crate::{morton, Bvh, Vec3};
+use crate::bvh2::Bvh;
+use crate::morton;
+use glam::Vec3;
 
 /// A subtree is summed by its moments when the point lies farther than
 /// `BETA` times the radius of its triangles from their centre.
@@ -238,7 +240,7 @@ impl MeshAccel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::AccelKind;
+    use crate::accel::AccelKind;
 
     /// An axis-aligned cube `[0, 1]^3`, faces outwards, two triangles each;
     /// without its top face when `open`.

@@ -4,7 +4,7 @@
 //! it) and portable (two 4-lane `glam::Vec4` halves: SSE on x86-64, NEON on
 //! aarch64, scalar elsewhere).
 //!
-//! Both perform per lane exactly the operations of [`crate::Aabb::intersect`]
+//! Both perform per lane exactly the operations of [`crate::aabb::Aabb::intersect`]
 //! in the same order, and their `min`/`max` take their operands in the same
 //! order (`glam::Vec4::min(a, b)` is `minps(a, b)` on x86-64, as
 //! `_mm256_min_ps(a, b)` is), so NaN lanes resolve identically too: a
@@ -13,7 +13,7 @@
 use glam::{Vec3, Vec3A, Vec4};
 
 use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
-use crate::Ray;
+use crate::ray::Ray;
 
 /// Children per node.
 pub(crate) const WIDTH: usize = 8;
@@ -246,7 +246,7 @@ mod avx2 {
 
     use super::{near_far_rows, BoxLanes, Node8, EMPTY, MAX, MIN, WIDTH};
     use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
-    use crate::Ray;
+    use crate::ray::Ray;
 
     /// Whether this CPU runs the AVX2 path (checked once, then cached by
     /// the standard library). In this crate's unit tests,
@@ -443,7 +443,7 @@ mod tests {
                                 node.bounds[r + 2][i],
                             )
                         };
-                        let aabb = crate::Aabb::new(corner(MIN), corner(MAX));
+                        let aabb = crate::aabb::Aabb::new(corner(MIN), corner(MAX));
                         let want = aabb.intersect(&ray, inv);
                         assert_eq!(pb >> i & 1 == 1, want.is_some(), "{ray:?} slot {i}");
                         if let Some((enter, _)) = want {

@@ -1,13 +1,13 @@
 //! Watertight ray/triangle intersection (Woop, Benthin and Wald, "Watertight
-//! Ray/Triangle Intersection", JCGT 2013) and an indexed triangle mesh that
-//! acceleration structures can index, with exact polygon clipping for spatial
-//! subdivision.
+//! Ray/Triangle Intersection", JCGT 2013) with its stated error bounds: the
+//! `f32` edge functions where their signs are certain, `f64` where not, and
+//! the distance in `f64`.
 
 use glam::{DVec3, Vec3};
 
-use crate::rounding::{f32_at_or_above, f32_at_or_below};
+use crate::aabb::Aabb;
+use crate::ray::Ray;
 use crate::util::widen_up;
-use crate::{Aabb, PrimitiveId, Primitives, Ray};
 
 /// Where a ray hits a triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,7 +121,7 @@ pub fn intersect_triangle_sheared(
 /// a vertex exactly one triangle of a fan the ray passes through. Counting
 /// these hits along a ray therefore counts crossings: even for a ray
 /// through a closed, consistently oriented mesh (the basis of
-/// [`crate::MeshAccel::contains`]). Everything else is the plain test.
+/// [`crate::mesh::MeshAccel::contains`]). Everything else is the plain test.
 #[inline]
 pub fn intersect_triangle_owned(
     ray: &Ray,
@@ -191,7 +191,7 @@ fn intersect<const OWNED: bool>(
 /// The end of [`intersect_triangle_sheared`] once the `f32` edge functions
 /// `u, v, w` are known to have certain signs, none of them opposite: their
 /// normalised weights, then the distance. Split out so that a test of several
-/// triangles at once (`triangle_lanes.rs`) can finish a lane with exactly the
+/// triangles at once (`triangle/lanes.rs`) can finish a lane with exactly the
 /// arithmetic of the one-triangle test. `scale` is the test's `s`, the
 /// largest L1 norm of a vertex relative to the origin.
 #[inline(always)]
@@ -236,7 +236,7 @@ pub(crate) fn hit_from_certain_edges(
 /// sum is at least the exact one times (1 - 2^-23): `m <= s (1 + 2^-21) <=
 /// fl(s C)` (subnormal sums and differences are exact, and overflow makes
 /// `s` infinite), and rounding is monotonic; unit test in
-/// `triangle_lanes.rs`. Each `z_i` carries three roundings (difference,
+/// `triangle/lanes.rs`. Each `z_i` carries three roundings (difference,
 /// reciprocal, product), the products and sums three more, and each exact
 /// edge function is within `B` of `u_i`. `E = (2^-21 A + B Z) (1 + 2^-10)` covers that and the
 /// roundings of `E` itself; `T` beyond `E` on the side opposite to `D`
@@ -568,239 +568,6 @@ pub fn is_degenerate(p0: Vec3, p1: Vec3, p2: Vec3) -> bool {
     (p1 - p0).cross(p2 - p0) == DVec3::ZERO
 }
 
-/// An indexed triangle mesh. Triangle `i` has the vertices
-/// `vertices[triangles[i][0..3]]`; every index must be in range.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriangleMesh {
-    /// Vertex positions.
-    pub vertices: Vec<Vec3>,
-    /// Vertex indices, three per triangle.
-    pub triangles: Vec<[u32; 3]>,
-}
-
-impl TriangleMesh {
-    /// A mesh from positions and index triples.
-    pub fn new(vertices: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Self {
-        TriangleMesh {
-            vertices,
-            triangles,
-        }
-    }
-
-    /// The three vertices of triangle `i`.
-    #[inline]
-    pub fn triangle(&self, i: PrimitiveId) -> [Vec3; 3] {
-        let [a, b, c] = self.triangles[i as usize];
-        [
-            self.vertices[a as usize],
-            self.vertices[b as usize],
-            self.vertices[c as usize],
-        ]
-    }
-
-    /// The watertight test of `ray` against triangle `i`.
-    #[inline]
-    pub fn intersect(&self, i: PrimitiveId, ray: &Ray) -> Option<TriangleHit> {
-        let [a, b, c] = self.triangle(i);
-        intersect_triangle(ray, a, b, c)
-    }
-
-    /// [`TriangleMesh::intersect`] with the ray's shear computed once by the
-    /// caller (`RayShear::new(ray)`), for loops over many triangles.
-    #[inline]
-    pub fn intersect_sheared(
-        &self,
-        i: PrimitiveId,
-        ray: &Ray,
-        shear: &RayShear,
-    ) -> Option<TriangleHit> {
-        let [a, b, c] = self.triangle(i);
-        intersect_triangle_sheared(ray, shear, a, b, c)
-    }
-}
-
-impl Primitives for TriangleMesh {
-    fn len(&self) -> usize {
-        self.triangles.len()
-    }
-
-    fn bounds(&self, index: PrimitiveId) -> Aabb {
-        Aabb::from_points(self.triangle(index))
-    }
-
-    fn clipped_bounds(&self, index: PrimitiveId, clip: &Aabb) -> Option<Aabb> {
-        clip_triangle_bounds(self.triangle(index), clip)
-    }
-
-    fn corners(&self, index: PrimitiveId) -> Option<[Vec3; 3]> {
-        Some(self.triangle(index))
-    }
-}
-
-/// The boxes of the parts of a triangle inside `b` below and above the
-/// plane `axis = plane`, for spatial splits: each side's corners and the
-/// points where edges cross the plane, intersected with the side's half of
-/// `b`. Looser than the full clip (only one plane is cut), a small part of
-/// its cost. Triangles with non-finite vertices get the halves of their
-/// box's overlap with `b`.
-pub fn split_triangle_bounds(
-    tri: [Vec3; 3],
-    b: &Aabb,
-    axis: usize,
-    plane: f32,
-) -> [Option<Aabb>; 2] {
-    let (mut below_half, mut above_half) = (*b, *b);
-    below_half.max[axis] = plane;
-    above_half.min[axis] = plane;
-    let keep = |side: Aabb, half: &Aabb| {
-        let s = side.intersection(half);
-        (!s.is_empty()).then_some(s)
-    };
-    // The conservative answer: the triangle's whole box on both sides.
-    let whole = || {
-        let tb = Aabb::from_points(tri);
-        [keep(tb, &below_half), keep(tb, &above_half)]
-    };
-    if !tri.iter().all(|p| p.is_finite()) || !plane.is_finite() {
-        return whole();
-    }
-    let (mut below, mut above) = (Aabb::EMPTY, Aabb::EMPTY);
-    // A crossing is computed in `f32` with an error of a few units of
-    // roundoff of the largest coordinate (`s` within 3u, the point within
-    // 5u of `scale`); 2^-20 of `scale` (16u) encloses it with room to spare.
-    let scale = tri
-        .iter()
-        .fold(plane.abs(), |m, p| m.max(p.abs().max_element()));
-    let margin = Vec3::splat(scale * 2.0f32.powi(-20));
-    for i in 0..3 {
-        let (p, q) = (tri[i], tri[(i + 1) % 3]);
-        if p[axis] <= plane {
-            below = below.grow(p);
-        }
-        if p[axis] >= plane {
-            above = above.grow(p);
-        }
-        if (p[axis] < plane && q[axis] > plane) || (p[axis] > plane && q[axis] < plane) {
-            let s = (plane - p[axis]) / (q[axis] - p[axis]);
-            let x = p + (q - p) * s;
-            if !x.is_finite() {
-                // An edge longer than the largest float (`q - p`
-                // overflowed): no bound on the crossing, so none is cut.
-                return whole();
-            }
-            let (lo, hi) = (x - margin, x + margin);
-            below = below.grow(lo).grow(hi);
-            above = above.grow(lo).grow(hi);
-        }
-    }
-    [keep(below, &below_half), keep(above, &above_half)]
-}
-
-/// The box around the part of a triangle inside `clip`, or `None` when the
-/// triangle misses the box.
-///
-/// The triangle is clipped as a polygon against the six planes
-/// (Sutherland–Hodgman) in `f64`, against a box widened by a tiny margin so
-/// that rounding can only keep, never drop, a triangle that touches `clip`.
-/// The result is padded by the same margin, rounded outward to `f32` and
-/// intersected with `clip`, so it encloses the exact clipped polygon.
-/// Triangles with non-finite vertices fall back to the conservative overlap
-/// of their box with `clip`.
-pub fn clip_triangle_bounds(tri: [Vec3; 3], clip: &Aabb) -> Option<Aabb> {
-    let tb = Aabb::from_points(tri);
-    let overlap = tb.intersection(clip);
-    if overlap.is_empty() {
-        return None;
-    }
-    if !tri.iter().all(|p| p.is_finite()) || !clip.min.is_finite() || !clip.max.is_finite() {
-        return Some(overlap);
-    }
-    if clip.contains_box(&tb) {
-        return Some(tb);
-    }
-    // The clipping error of f64 is ~2^-50 of the largest magnitude involved;
-    // 2^-40 leaves a wide safety factor and is still far below f32 precision.
-    let scale = tri
-        .iter()
-        .fold(clip.min.abs().max(clip.max.abs()), |m, p| m.max(p.abs()))
-        .max_element() as f64;
-    let margin = scale * f64::from(2.0f32.powi(-40));
-    let lo = clip.min.as_dvec3() - DVec3::splat(margin);
-    let hi = clip.max.as_dvec3() + DVec3::splat(margin);
-
-    let mut poly = [DVec3::ZERO; 9];
-    let mut n = 3;
-    for (i, p) in tri.iter().enumerate() {
-        poly[i] = p.as_dvec3();
-    }
-    let mut tmp = [DVec3::ZERO; 9];
-    for axis in 0..3 {
-        for (plane, keep_above) in [(lo[axis], true), (hi[axis], false)] {
-            // Signed distance, positive on the kept side.
-            let dist = |p: DVec3| {
-                if keep_above {
-                    p[axis] - plane
-                } else {
-                    plane - p[axis]
-                }
-            };
-            let mut m = 0;
-            for i in 0..n {
-                let p = poly[i];
-                let q = poly[(i + 1) % n];
-                let (dp, dq) = (dist(p), dist(q));
-                if dp >= 0.0 {
-                    tmp[m] = p;
-                    m += 1;
-                }
-                if (dp >= 0.0) != (dq >= 0.0) {
-                    let s = dp / (dp - dq);
-                    let mut x = p + (q - p) * s;
-                    // Snap onto the plane: the crossing lies on it exactly.
-                    x[axis] = plane;
-                    tmp[m] = x;
-                    m += 1;
-                }
-            }
-            // A convex polygon clipped by a half-space gains at most one vertex.
-            n = m.min(9);
-            poly[..n].copy_from_slice(&tmp[..n]);
-            if n == 0 {
-                return None;
-            }
-        }
-    }
-    let mut bmin = DVec3::splat(f64::INFINITY);
-    let mut bmax = DVec3::splat(f64::NEG_INFINITY);
-    for p in &poly[..n] {
-        bmin = bmin.min(*p);
-        bmax = bmax.max(*p);
-    }
-    let bmin = round_down(bmin - DVec3::splat(margin));
-    let bmax = round_up(bmax + DVec3::splat(margin));
-    // Both the triangle's own box and `clip` enclose the exact clipped polygon.
-    let b = Aabb::new(bmin, bmax).intersection(&overlap);
-    (!b.is_empty()).then_some(b)
-}
-
-/// The largest `f32` vector not above `v`, per component.
-fn round_down(v: DVec3) -> Vec3 {
-    Vec3::new(
-        f32_at_or_below(v.x),
-        f32_at_or_below(v.y),
-        f32_at_or_below(v.z),
-    )
-}
-
-/// The smallest `f32` vector not below `v`, per component.
-fn round_up(v: DVec3) -> Vec3 {
-    Vec3::new(
-        f32_at_or_above(v.x),
-        f32_at_or_above(v.y),
-        f32_at_or_above(v.z),
-    )
-}
-
 /// The case of the test `an_underflowing_bound_leaves_the_signs_to_f64`:
 /// a ray from the origin, a triangle within about 1e-22 of it that the ray
 /// passes just outside edge `bc` of, and the neighbour across that edge
@@ -823,66 +590,6 @@ pub(crate) fn underflow_case() -> (Ray, [Vec3; 3], [Vec3; 3]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Both sides' boxes of a cut enclose every point of the triangle on
-    /// their side (points on a lattice of barycentrics and the exact edge
-    /// crossings, in `f64`), for ordinary, tiny, huge and overflowing
-    /// triangles.
-    #[test]
-    fn split_bounds_enclose_both_parts() {
-        let mut next = crate::util::unit_sequence(3);
-        let mut cases: Vec<([Vec3; 3], usize, f32)> = Vec::new();
-        for k in 0..300 {
-            let size = [1.0f32, 1e-30, 1e30, 1e38][k % 4];
-            let mut v = || Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 2.0 * size;
-            let tri = [v(), v(), v()];
-            let axis = k % 3;
-            let (lo, hi) = (
-                tri.iter().map(|p| p[axis]).fold(f32::INFINITY, f32::min),
-                tri.iter()
-                    .map(|p| p[axis])
-                    .fold(f32::NEG_INFINITY, f32::max),
-            );
-            cases.push((tri, axis, lo + (hi - lo) * next()));
-        }
-        // An edge whose difference overflows, cut just above a corner.
-        let p = Vec3::new(-3e38, 0.0, 0.0);
-        cases.push(([p, Vec3::new(3e38, 1e30, 0.0), Vec3::Z], 1, 1e-20));
-        for (tri, axis, plane) in cases {
-            let b = Aabb::from_points(tri);
-            let [below, above] = split_triangle_bounds(tri, &b, axis, plane);
-            let inside = |side: Option<Aabb>, x: DVec3| {
-                side.is_some_and(|s| {
-                    (0..3).all(|k| f64::from(s.min[k]) <= x[k] && x[k] <= f64::from(s.max[k]))
-                })
-            };
-            let [a, c, d] = tri.map(|p| p.as_dvec3());
-            let mut points = Vec::new();
-            for i in 0..=8 {
-                for j in 0..=8 - i {
-                    let (u, v) = (i as f64 / 8.0, j as f64 / 8.0);
-                    points.push(a + (c - a) * u + (d - a) * v);
-                }
-            }
-            let plane64 = f64::from(plane);
-            for (p, q) in [(a, c), (c, d), (d, a)] {
-                if (p[axis] - plane64) * (q[axis] - plane64) < 0.0 {
-                    let s = (plane64 - p[axis]) / (q[axis] - p[axis]);
-                    let mut x = p + (q - p) * s;
-                    x[axis] = plane64;
-                    points.push(x);
-                }
-            }
-            for x in points {
-                if x[axis] <= plane64 {
-                    assert!(inside(below, x), "{tri:?} {axis} {plane}: {x:?} below");
-                }
-                if x[axis] >= plane64 {
-                    assert!(inside(above, x), "{tri:?} {axis} {plane}: {x:?} above");
-                }
-            }
-        }
-    }
 
     fn ray(o: Vec3, d: Vec3) -> Ray {
         Ray::new(o, d, 0.0, f32::INFINITY)
@@ -1002,34 +709,6 @@ mod tests {
         assert!(intersect_triangle(&r, P0, P0, P0).is_none());
         let zero = Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::ZERO, 0.0, 1.0);
         assert!(intersect_triangle(&zero, P0, P1, P2).is_none());
-    }
-
-    #[test]
-    fn clipping_is_exact_and_conservative() {
-        let tri = [P0, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
-        // The box [1,2]^2 x [-1,1] only holds the corner region x + y <= 2.
-        let clip = Aabb::new(Vec3::new(1.0, 1.0, -1.0), Vec3::new(2.0, 2.0, 1.0));
-        let b = clip_triangle_bounds(tri, &clip).unwrap();
-        assert_eq!(b.min, Vec3::new(1.0, 1.0, 0.0));
-        // Padding may add an ulp, never more.
-        assert!(b.max.cmple(Vec3::new(1.0000002, 1.0000002, 0.0)).all());
-        // Entirely beyond the hypotenuse: nothing remains.
-        let clip = Aabb::new(Vec3::new(1.2, 1.2, -1.0), Vec3::new(2.0, 2.0, 1.0));
-        assert!(clip_triangle_bounds(tri, &clip).is_none());
-        let clip = Aabb::new(Vec3::new(0.5, -1.0, -1.0), Vec3::new(1.0, 3.0, 1.0));
-        let b = clip_triangle_bounds(tri, &clip).unwrap();
-        assert_eq!(b.min, Vec3::new(0.5, 0.0, 0.0));
-        assert!(b.max.y >= 1.5 && b.max.y < 1.5001);
-    }
-
-    #[test]
-    fn mesh_primitives() {
-        let m = TriangleMesh::new(vec![P0, P1, P2], vec![[0, 1, 2]]);
-        assert_eq!(Primitives::len(&m), 1);
-        assert_eq!(m.bounds(0), Aabb::new(P0, Vec3::new(1.0, 1.0, 0.0)));
-        assert!(m
-            .intersect(0, &ray(Vec3::new(0.1, 0.1, 1.0), -Vec3::Z))
-            .is_some());
     }
 
     /// Rays whose direction has a huge component (1e20 to 1e35) meeting a

@@ -37,10 +37,11 @@
 use std::mem::MaybeUninit;
 
 use super::lanes::Node8;
-use super::wide::WideBvh;
-use super::STACK_SIZE;
+use super::WideBvh;
+use crate::bvh2::STACK_SIZE;
+use crate::counters::Counters;
+use crate::ray::Ray;
 use crate::util::widen_up;
-use crate::{Counters, Ray};
 
 /// Rays in a packet on AVX2: one per lane.
 pub const PACKET: usize = 8;
@@ -60,7 +61,7 @@ pub(crate) fn packet_width() -> usize {
 
 /// Whether all directions of `rays` lie in one octant (the same sign bits):
 /// the cheap half of what a packet needs (see
-/// [`crate::TriangleBvh::packet`]), which secondary rays in random
+/// [`crate::mesh::triangle_bvh::TriangleBvh::packet`]), which secondary rays in random
 /// directions fail at once.
 pub fn one_octant(rays: &[Ray]) -> bool {
     let Some(first) = rays.first() else {
@@ -71,7 +72,7 @@ pub fn one_octant(rays: &[Ray]) -> bool {
 }
 
 /// Whether `rays` look like a stream of camera rays, worth offering to
-/// [`crate::TriangleBvh::packet`] in eights: at least half of the
+/// [`crate::mesh::triangle_bvh::TriangleBvh::packet`] in eights: at least half of the
 /// first 64 groups of eight have all their directions in one octant.
 /// Secondary rays (random directions) do not, and keep the plain per-ray
 /// loop, which is as fast for them as the offer (camera rays gain from it).
@@ -317,8 +318,8 @@ mod avx2 {
 
     use super::{PacketLanes, PACKET};
     use crate::aabb::SLAB_TFAR_SCALE;
-    use crate::bvh::lanes::rows_for_signs;
-    use crate::Ray;
+    use crate::ray::Ray;
+    use crate::wide::lanes::rows_for_signs;
 
     /// The rays' origins, inverse directions and `tmin`, one ray per lane,
     /// and the rows of a node's bounds holding each axis's near and far
@@ -442,8 +443,8 @@ mod avx512 {
 
     use super::{PacketLanes, PACKET16};
     use crate::aabb::SLAB_TFAR_SCALE;
-    use crate::bvh::lanes::rows_for_signs;
-    use crate::Ray;
+    use crate::ray::Ray;
+    use crate::wide::lanes::rows_for_signs;
 
     /// As [`super::avx2::Lanes`], sixteen lanes wide. Only ever created
     /// inside functions compiled for AVX-512 F.

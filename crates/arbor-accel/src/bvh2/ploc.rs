@@ -13,8 +13,8 @@ use rayon::prelude::*;
 
 use super::topdown::{self, Median};
 use super::{BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
+use crate::aabb::Aabb;
 use crate::morton::MortonGrid;
-use crate::Aabb;
 
 /// Marks a temporary node that is a single primitive.
 const LEAF: u32 = u32::MAX;

@@ -7,7 +7,7 @@
 //! scalar test. Here each leaf's triangles are copied into the structure as
 //! packets of four, coordinates in lanes (`Tri4`, 160 bytes: 40 per
 //! triangle when full), and go through the watertight test's `f32` edge
-//! stage four at a time in SIMD lanes (`triangle_lanes.rs`). The tree is
+//! stage four at a time in SIMD lanes (`triangle/lanes.rs`). The tree is
 //! built knowing this: its SAH counts a leaf of `n` triangles as
 //! `ceil(n / 4)` tests (`BvhParams::leaf_block`), so leaves fill packets. The answers are bit for bit
 //! those of [`WideBvh`] with [`intersect_triangle_sheared`] as the caller's
@@ -17,16 +17,22 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::packet::{one_octant, PACKET, PACKET16};
-use super::{Bvh, BvhBuilder, BvhParams, WideBvh};
+use super::packet_query::PacketQuery;
+use crate::accel::{AccelStats, Accelerator};
+use crate::bvh2::{Bvh, BvhBuilder, BvhParams};
+use crate::counters::Counters;
+use crate::mesh::MeshHit;
+use crate::ray::Ray;
 #[cfg(target_arch = "x86_64")]
-use crate::triangle_lanes::pair;
-use crate::triangle_lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
-use crate::util::prefetch;
-use crate::{
-    intersect_triangle_owned, intersect_triangle_sheared, AccelStats, Accelerator, Counters,
-    MeshHit, Ray, RayShear, TriangleHit, TriangleMesh,
+use crate::triangle::lanes::pair;
+use crate::triangle::lanes::{edge_stage, EdgeVerdict, Tri4, LANES};
+use crate::triangle::mesh::TriangleMesh;
+use crate::triangle::watertight::{
+    intersect_triangle_owned, intersect_triangle_sheared, RayShear, TriangleHit,
 };
+use crate::util::prefetch;
+use crate::wide::packet::{one_octant, PACKET, PACKET16};
+use crate::wide::WideBvh;
 
 /// Leaves packed by one parallel task: a leaf is one or two packets, too
 /// little work to hand to a thread alone.
@@ -195,7 +201,7 @@ impl TriangleBvh {
         best
     }
 
-    /// The answers of query `Q` ([`Closest`], [`Occluded`], [`Crossings`])
+    /// The answers of query `Q` ([`Closest`](super::packet_query::Closest), [`Occluded`](super::packet_query::Occluded), [`Crossings`](super::packet_query::Crossings))
     /// for `N` rays traced together as a packet, `N` being [`PACKET`]
     /// (eight, on a CPU with AVX2) or [`PACKET16`] (sixteen, with AVX-512
     /// F), or `None` (nothing traced) when they are not coherent enough for
@@ -203,7 +209,7 @@ impl TriangleBvh {
     /// `tmin >= 0` and all directions in one octant (neighbouring camera
     /// rays are), and the CPU must have the width's instructions. Callers
     /// answer the others one by one. Each lane runs the single ray's leaf
-    /// test, so each answer is the ray's own (see `bvh/packet.rs`; of
+    /// test, so each answer is the ray's own (see `wide/packet.rs`; of
     /// several triangles hit at exactly the same distance, a closest-hit
     /// packet may report another one than the single ray would).
     #[inline(never)]
@@ -219,11 +225,11 @@ impl TriangleBvh {
         }
         #[cfg(target_arch = "x86_64")]
         {
-            if N == PACKET16 && super::lanes::has_avx512() {
+            if N == PACKET16 && crate::wide::lanes::has_avx512() {
                 // SAFETY: the CPU has AVX-512 F.
                 return unsafe { self.packet_avx512::<N, C, Q>(rays, counters) };
             }
-            if N == PACKET && super::lanes::has_avx2() {
+            if N == PACKET && crate::wide::lanes::has_avx2() {
                 // SAFETY: the CPU has AVX2.
                 return unsafe { self.packet_avx2::<N, C, Q>(rays, counters) };
             }
@@ -379,7 +385,7 @@ impl TriangleBvh {
     /// With `OWNED`, each crossing is reported by one triangle only (see
     /// [`crate::numerics::intersect_triangle_owned`]).
     #[inline(always)]
-    fn test_leaf<const ANY_HIT: bool, const OWNED: bool, C: Counters>(
+    pub(super) fn test_leaf<const ANY_HIT: bool, const OWNED: bool, C: Counters>(
         &self,
         first: usize,
         count: usize,
@@ -396,7 +402,7 @@ impl TriangleBvh {
             // stage does not depend on `tmax`, so computing the second
             // verdict before the first packet's hits changes nothing).
             #[cfg(target_arch = "x86_64")]
-            if i + 1 < packets.len() && super::lanes::has_avx2() {
+            if i + 1 < packets.len() && crate::wide::lanes::has_avx2() {
                 let second = (count - (i + 1) * LANES).min(LANES);
                 let pair = [&packets[i], &packets[i + 1]];
                 // SAFETY: the CPU has AVX2.
@@ -505,162 +511,12 @@ impl TriangleBvh {
     }
 }
 
-/// A query a packet answers, lane by lane, with the single ray's leaf test
-/// (`TriangleBvh::test_leaf`): what a lane keeps, how a hit changes it, and
-/// where the lane's ray may still go after a leaf.
-pub(crate) trait PacketQuery {
-    /// One ray's answer, its default the answer before the first leaf.
-    type Answer: Default + Send;
-
-    /// Whether the query leaves `bvh`'s rays to single rays.
-    fn declined(bvh: &TriangleBvh) -> bool {
-        let _ = bvh;
-        false
-    }
-
-    /// The leaf `(first, count)` tested for the lane's `ray`, its hits
-    /// taken into `answer` (which may shrink `ray`): `test_leaf` with the
-    /// query's `ANY_HIT` and `OWNED`. `true` when it stopped early.
-    fn test<C: Counters>(
-        bvh: &TriangleBvh,
-        leaf: (usize, usize),
-        ray: &mut Ray,
-        shear: &RayShear,
-        counters: &mut C,
-        answer: &mut Self::Answer,
-    ) -> bool;
-
-    /// The lane's culling distance after a leaf, whose test ended early
-    /// when `stopped`: by default the ray's `tmax` (shrunk by the closest
-    /// hit; the whole interval for the crossings, so that every leaf the
-    /// ray enters is offered once, as on the single ray's walk).
-    #[inline(always)]
-    fn after_leaf(answer: &mut Self::Answer, stopped: bool, ray: &Ray) -> f32 {
-        let _ = (answer, stopped);
-        ray.tmax
-    }
-}
-
-/// Each ray's closest hit, as [`TriangleBvh::closest`] finds it.
-pub(crate) struct Closest;
-
-/// Whether anything blocks each ray, as [`TriangleBvh::occluded`] answers
-/// (a ray leaves the packet at its first blocker).
-pub(crate) struct Occluded;
-
-/// How many crossings of the surface each ray meets, each once (the
-/// mesh's `count`: the owned triangle test on the ray's whole interval).
-/// Declined where a triangle sits in several leaves
-/// ([`TriangleBvh::has_repeats`]): counting there needs the crossings'
-/// triangles told apart.
-pub(crate) struct Crossings;
-
-impl PacketQuery for Closest {
-    type Answer = Option<MeshHit>;
-    #[inline(always)]
-    fn test<C: Counters>(
-        bvh: &TriangleBvh,
-        (first, count): (usize, usize),
-        ray: &mut Ray,
-        shear: &RayShear,
-        counters: &mut C,
-        best: &mut Option<MeshHit>,
-    ) -> bool {
-        bvh.test_leaf::<false, false, C>(first, count, ray, shear, counters, |prim, hit, ray| {
-            if best.is_none_or(|b| hit.t < b.hit.t) {
-                *best = Some(MeshHit { prim, hit });
-            }
-            ray.tmax = ray.tmax.min(hit.t);
-            false
-        })
-    }
-}
-
-impl PacketQuery for Occluded {
-    type Answer = bool;
-    // The single ray's any-hit test: it stops at the first triangle
-    // certainly hit.
-    #[inline(always)]
-    fn test<C: Counters>(
-        bvh: &TriangleBvh,
-        (first, count): (usize, usize),
-        ray: &mut Ray,
-        shear: &RayShear,
-        counters: &mut C,
-        _: &mut bool,
-    ) -> bool {
-        bvh.test_leaf::<true, false, C>(first, count, ray, shear, counters, |_, _, _| true)
-    }
-
-    #[inline(always)]
-    fn after_leaf(blocked: &mut bool, stopped: bool, ray: &Ray) -> f32 {
-        if stopped {
-            *blocked = true;
-            // Below every entry distance (a packet's rays have
-            // `tmin >= 0`), so the ray enters nothing more; finite, so
-            // that widening it stays a number.
-            return -1.0;
-        }
-        ray.tmax
-    }
-}
-
-impl PacketQuery for Crossings {
-    type Answer = u32;
-    fn declined(bvh: &TriangleBvh) -> bool {
-        bvh.has_repeats()
-    }
-
-    // The owned test: each crossing reported by one triangle.
-    #[inline(always)]
-    fn test<C: Counters>(
-        bvh: &TriangleBvh,
-        (first, count): (usize, usize),
-        ray: &mut Ray,
-        shear: &RayShear,
-        counters: &mut C,
-        crossings: &mut u32,
-    ) -> bool {
-        bvh.test_leaf::<false, true, C>(first, count, ray, shear, counters, |_, _, _| {
-            *crossings += 1;
-            false
-        })
-    }
-}
-
-/// Every crossing of each ray, as the mesh's `all_hits` finds them (the
-/// owned test on the whole interval), in the order met; the caller sorts
-/// them. Declined where triangles repeat, as [`Crossings`].
-pub(crate) struct EveryHit;
-
-impl PacketQuery for EveryHit {
-    type Answer = Vec<MeshHit>;
-
-    fn declined(bvh: &TriangleBvh) -> bool {
-        bvh.has_repeats()
-    }
-
-    #[inline(always)]
-    fn test<C: Counters>(
-        bvh: &TriangleBvh,
-        (first, count): (usize, usize),
-        ray: &mut Ray,
-        shear: &RayShear,
-        counters: &mut C,
-        hits: &mut Vec<MeshHit>,
-    ) -> bool {
-        bvh.test_leaf::<false, true, C>(first, count, ray, shear, counters, |prim, hit, _| {
-            hits.push(MeshHit { prim, hit });
-            false
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bvh::lanes::without_avx2;
-    use crate::{Accel, AccelKind};
+    use crate::accel::{Accel, AccelKind};
+    use crate::mesh::packet_query::{Closest, Crossings, EveryHit, Occluded};
+    use crate::wide::lanes::without_avx2;
 
     /// A deterministic bumpy mesh with shared edges, plus a few hostile
     /// triangles (degenerate, huge, NaN), and rays from all around.
@@ -717,7 +573,7 @@ mod tests {
         let list = Accel::build(AccelKind::List, mesh);
         let shear = RayShear::new(ray);
         let mut best: Option<(u32, f32)> = None;
-        list.closest(ray, &mut crate::NoCounters, |p, r| {
+        list.closest(ray, &mut crate::counters::NoCounters, |p, r| {
             let [a, b, c] = mesh.triangle(p);
             let h = intersect_triangle_sheared(r, &shear, a, b, c)?;
             if best.is_none_or(|(_, t)| h.t < t) {
@@ -725,7 +581,7 @@ mod tests {
             }
             Some(h.t)
         });
-        let any = list.occluded(ray, &mut crate::NoCounters, |p, r| {
+        let any = list.occluded(ray, &mut crate::counters::NoCounters, |p, r| {
             let [a, b, c] = mesh.triangle(p);
             intersect_triangle_sheared(r, &shear, a, b, c).is_some()
         });
@@ -754,12 +610,15 @@ mod tests {
         );
         let mut hits = 0;
         for ray in rays {
-            let got = fast.closest(ray, &mut crate::NoCounters);
+            let got = fast.closest(ray, &mut crate::counters::NoCounters);
             // The portable traversal and leaf test (on a machine without
             // AVX2, the only ones) answer alike, hit for hit.
             let portable = without_avx2(|| {
-                let closest = fast.closest(ray, &mut crate::NoCounters);
-                (closest, fast.occluded(ray, &mut crate::NoCounters))
+                let closest = fast.closest(ray, &mut crate::counters::NoCounters);
+                (
+                    closest,
+                    fast.occluded(ray, &mut crate::counters::NoCounters),
+                )
             });
             assert_eq!(portable, (got, got.is_some()), "{ray:?}");
             let (want, any) = brute(mesh, ray);
@@ -768,7 +627,7 @@ mod tests {
             // (brute force may pick the other triangle of a shared edge).
             let shear = RayShear::new(ray);
             let mut generic: Option<MeshHit> = None;
-            wide.closest(ray, &mut crate::NoCounters, |p, r| {
+            wide.closest(ray, &mut crate::counters::NoCounters, |p, r| {
                 let [a, b, c] = mesh.triangle(p);
                 let hit = intersect_triangle_sheared(r, &shear, a, b, c)?;
                 if generic.is_none_or(|g| hit.t < g.hit.t) {
@@ -777,7 +636,11 @@ mod tests {
                 Some(hit.t)
             });
             assert_eq!(got, generic, "{ray:?}");
-            assert_eq!(fast.occluded(ray, &mut crate::NoCounters), any, "{ray:?}");
+            assert_eq!(
+                fast.occluded(ray, &mut crate::counters::NoCounters),
+                any,
+                "{ray:?}"
+            );
             hits += usize::from(got.is_some());
         }
         assert!(hits > rays.len() / 2, "only {hits} of {} hit", rays.len());
@@ -846,9 +709,9 @@ mod tests {
                 rays.push(ray);
             }
         }
-        check_packets::<PACKET>(&mesh, &bvh, &rays, crate::bvh::lanes::has_avx2());
+        check_packets::<PACKET>(&mesh, &bvh, &rays, crate::wide::lanes::has_avx2());
         #[cfg(target_arch = "x86_64")]
-        let wide = crate::bvh::lanes::has_avx512();
+        let wide = crate::wide::lanes::has_avx512();
         #[cfg(not(target_arch = "x86_64"))]
         let wide = false;
         if !wide {
@@ -859,23 +722,23 @@ mod tests {
         // eight still traced).
         #[cfg(target_arch = "x86_64")]
         {
-            use crate::bvh::lanes::without_avx512;
+            use crate::wide::lanes::without_avx512;
             let sixteen: &[Ray; PACKET16] = rays[..PACKET16].try_into().unwrap();
             let eight: &[Ray; PACKET] = rays[..PACKET].try_into().unwrap();
             let hidden = without_avx512(|| {
-                let width = crate::bvh::packet_width();
+                let width = crate::wide::packet::packet_width();
                 let traced = bvh
-                    .packet::<_, _, Closest>(eight, &mut crate::NoCounters)
+                    .packet::<_, _, Closest>(eight, &mut crate::counters::NoCounters)
                     .is_some();
                 (
                     width,
-                    bvh.packet::<_, _, Closest>(sixteen, &mut crate::NoCounters),
+                    bvh.packet::<_, _, Closest>(sixteen, &mut crate::counters::NoCounters),
                     traced,
                 )
             });
-            assert_eq!(hidden, (PACKET, None, crate::bvh::lanes::has_avx2()));
+            assert_eq!(hidden, (PACKET, None, crate::wide::lanes::has_avx2()));
             let width = if wide { PACKET16 } else { PACKET };
-            assert_eq!(crate::bvh::packet_width(), width);
+            assert_eq!(crate::wide::packet::packet_width(), width);
         }
     }
 
@@ -897,17 +760,17 @@ mod tests {
             )
         });
         assert_eq!(
-            bvh.packet::<_, _, Crossings>(&rays, &mut crate::NoCounters),
+            bvh.packet::<_, _, Crossings>(&rays, &mut crate::counters::NoCounters),
             None
         );
         assert_eq!(
-            bvh.packet::<_, _, EveryHit>(&rays, &mut crate::NoCounters),
+            bvh.packet::<_, _, EveryHit>(&rays, &mut crate::counters::NoCounters),
             None
         );
         let traced = bvh
-            .packet::<_, _, Occluded>(&rays, &mut crate::NoCounters)
+            .packet::<_, _, Occluded>(&rays, &mut crate::counters::NoCounters)
             .is_some();
-        assert_eq!(traced, crate::bvh::lanes::has_avx2());
+        assert_eq!(traced, crate::wide::lanes::has_avx2());
     }
 
     /// Packets of `N` rays from `rays` answer like single rays (see
@@ -923,7 +786,8 @@ mod tests {
         for chunk in rays.chunks_exact(N) {
             let packet: &[Ray; N] = chunk.try_into().unwrap();
             let coherent = one_octant(packet);
-            let Some(got) = bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters) else {
+            let Some(got) = bvh.packet::<_, _, Closest>(packet, &mut crate::counters::NoCounters)
+            else {
                 assert!(!available || !coherent, "a coherent packet was declined");
                 continue;
             };
@@ -932,23 +796,25 @@ mod tests {
             // Occlusion and counts take the same packets, each answer the
             // single ray's.
             let blocked = bvh
-                .packet::<_, _, Occluded>(packet, &mut crate::NoCounters)
+                .packet::<_, _, Occluded>(packet, &mut crate::counters::NoCounters)
                 .unwrap();
             let counts = bvh
-                .packet::<_, _, Crossings>(packet, &mut crate::NoCounters)
+                .packet::<_, _, Crossings>(packet, &mut crate::counters::NoCounters)
                 .unwrap();
             let every = bvh
-                .packet::<_, _, EveryHit>(packet, &mut crate::NoCounters)
+                .packet::<_, _, EveryHit>(packet, &mut crate::counters::NoCounters)
                 .unwrap();
             let answers = packet.iter().zip(&blocked).zip(&counts).zip(every);
             for (((ray, &blocked), &count), every) in answers {
                 assert_eq!(
                     blocked,
-                    bvh.occluded(ray, &mut crate::NoCounters),
+                    bvh.occluded(ray, &mut crate::counters::NoCounters),
                     "{ray:?}"
                 );
                 let mut crossings = Vec::new();
-                bvh.for_each_crossing(ray, &mut crate::NoCounters, |hit| crossings.push(hit));
+                bvh.for_each_crossing(ray, &mut crate::counters::NoCounters, |hit| {
+                    crossings.push(hit)
+                });
                 assert_eq!(count as usize, crossings.len(), "{ray:?}");
                 // The same crossings, met in another order.
                 let key = |h: &MeshHit| (h.prim, h.hit.t.to_bits());
@@ -959,7 +825,7 @@ mod tests {
                 several += usize::from(count > 1);
             }
             for (ray, got) in packet.iter().zip(got) {
-                let want = bvh.closest(ray, &mut crate::NoCounters);
+                let want = bvh.closest(ray, &mut crate::counters::NoCounters);
                 assert_eq!(
                     got.map(|h| h.hit.t.to_bits()),
                     want.map(|h| h.hit.t.to_bits()),
@@ -995,22 +861,23 @@ mod tests {
         // looks behind its origin (`tmin < 0`: the fast path's exit
         // widening holds only for `tmin >= 0`).
         let packet: &[Ray; N] = rays[..N].try_into().unwrap();
-        let declined = without_avx2(|| bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters));
+        let declined =
+            without_avx2(|| bvh.packet::<_, _, Closest>(packet, &mut crate::counters::NoCounters));
         assert_eq!(declined, None);
         let mut mixed = *packet;
         mixed[3].dir.x = -mixed[3].dir.x;
         assert_eq!(
-            bvh.packet::<_, _, Closest>(&mixed, &mut crate::NoCounters),
+            bvh.packet::<_, _, Closest>(&mixed, &mut crate::counters::NoCounters),
             None
         );
         let mut behind = *packet;
         behind[N - 3].tmin = -1.0;
         assert_eq!(
-            bvh.packet::<_, _, Closest>(&behind, &mut crate::NoCounters),
+            bvh.packet::<_, _, Closest>(&behind, &mut crate::counters::NoCounters),
             None
         );
         assert_eq!(
-            bvh.packet::<_, _, Closest>(packet, &mut crate::NoCounters)
+            bvh.packet::<_, _, Closest>(packet, &mut crate::counters::NoCounters)
                 .is_some(),
             available
         );
@@ -1048,7 +915,7 @@ mod tests {
         let fast = TriangleBvh::build(&TriangleMesh::default(), &BvhParams::default());
         let ray = Ray::new(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY);
         assert!(fast.is_empty());
-        assert_eq!(fast.closest(&ray, &mut crate::NoCounters), None);
-        assert!(!fast.occluded(&ray, &mut crate::NoCounters));
+        assert_eq!(fast.closest(&ray, &mut crate::counters::NoCounters), None);
+        assert!(!fast.occluded(&ray, &mut crate::counters::NoCounters));
     }
 }

@@ -30,8 +30,10 @@ use super::topdown::{
     Bounds, Split, CHUNK, SMALL,
 };
 use super::{BvhNode, BvhParams, Ref, FORCE_MEDIAN_DEPTH};
-use crate::triangle::split_triangle_bounds;
-use crate::{Aabb, Primitives, Vec3};
+use crate::aabb::Aabb;
+use crate::primitives::Primitives;
+use crate::triangle::clip::split_triangle_bounds;
+use glam::Vec3;
 
 /// Spatial splits are tried only where the object split's children overlap
 /// by more than this fraction of the root's surface area (Stich et al.'s
@@ -529,8 +531,8 @@ fn share(room: usize, left: usize, right: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh2::{Bvh, BvhBuilder};
     use crate::test_meshes::slivers;
-    use crate::{Bvh, BvhBuilder};
 
     #[test]
     fn spatial_splits_cut_long_slivers_into_a_cheaper_tree_whatever_the_threads() {

@@ -6,29 +6,24 @@
 //! its cache line more often than not. Leaves name a contiguous run of the
 //! primitive index array.
 
-mod lanes;
-mod packet;
 mod ploc;
 mod spatial;
 mod sweep;
 mod topdown;
-mod triangles;
-mod wide;
-
-pub(crate) use packet::{looks_coherent, packet_width, PACKET, PACKET16};
-pub(crate) use triangles::{Closest, Crossings, EveryHit, Occluded, PacketQuery, TriangleBvh};
-pub use wide::WideBvh;
 
 use std::mem::MaybeUninit;
 
 use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 use crate::aabb::widen_exit;
+use crate::aabb::Aabb;
+use crate::accel::{AccelStats, Accelerator};
+use crate::counters::Counters;
 use crate::counters::{count_node, skip_node};
+use crate::layout::{Layout, LayoutNode};
+use crate::primitives::{PrimitiveId, Primitives};
+use crate::ray::Ray;
 use crate::util::{offer_any, offer_closest, prepare_map, widen_up};
-use crate::{
-    Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, PrimitiveId, Primitives, Ray,
-};
 
 /// Depth from which every builder stops optimising and splits by count, so
 /// that no tree is deeper than `FORCE_MEDIAN_DEPTH + 32` levels whatever the
@@ -36,7 +31,7 @@ use crate::{
 pub(crate) const FORCE_MEDIAN_DEPTH: usize = 30;
 
 /// Entries of the traversal stack: one per level at most.
-const STACK_SIZE: usize = 64;
+pub(crate) const STACK_SIZE: usize = 64;
 
 /// One node: its box, and either its right child (interior, `count == 0`;
 /// the left child is the next node) or its primitives
@@ -226,9 +221,9 @@ impl Ref {
 /// A bounding volume hierarchy over any [`Primitives`].
 #[derive(Clone, Debug, Default)]
 pub struct Bvh {
-    nodes: Vec<BvhNode>,
-    prims: Vec<u32>,
-    unbounded: Vec<u32>,
+    pub(crate) nodes: Vec<BvhNode>,
+    pub(crate) prims: Vec<u32>,
+    pub(crate) unbounded: Vec<u32>,
     max_depth: usize,
     /// Whether a primitive sits in more than one leaf (spatial splits).
     repeats: bool,
@@ -634,7 +629,9 @@ impl Subtree {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{List, NoCounters, RayCounts, TriangleMesh};
+    use crate::counters::{NoCounters, RayCounts};
+    use crate::list::List;
+    use crate::triangle::mesh::TriangleMesh;
 
     fn grid_mesh(n: usize) -> TriangleMesh {
         // A wavy height field of 2 n^2 triangles.

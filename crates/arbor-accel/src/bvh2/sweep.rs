@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::{BvhNode, BvhParams, Ref, Subtree, FORCE_MEDIAN_DEPTH};
-use crate::Aabb;
+use crate::aabb::Aabb;
 
 /// Shared, read-only per-reference data; orders hold indices into it.
 struct Data<'a> {

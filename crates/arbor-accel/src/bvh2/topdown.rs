@@ -22,7 +22,7 @@ impl Item for Ref {
         self
     }
 }
-use crate::Aabb;
+use crate::aabb::Aabb;
 
 /// Chunk of references binned or bounded by one task in parallel loops.
 pub(super) const CHUNK: usize = 1 << 14;

@@ -28,24 +28,31 @@
 //!
 //! Correctness is the binary tree's: the lane arithmetic (either
 //! implementation) is, operation for operation, that of
-//! [`crate::Aabb::intersect`] (entry `max(near, tmin)`,
+//! [`crate::aabb::Aabb::intersect`] (entry `max(near, tmin)`,
 //! exit `far * SLAB_TFAR_SCALE` capped by a `tmax` widened by the slab
 //! rounding bound, a slab with `0 * inf = NaN` counted as `(-inf, inf)`), so
 //! a box the exact ray touches is never rejected, and every child box is
 //! the binary tree's box of that subtree.
+
+pub(crate) mod lanes;
+pub(crate) mod packet;
 
 use std::mem::MaybeUninit;
 
 use glam::Vec3A;
 use rayon::prelude::*;
 
-use super::lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
-use super::{Bvh, BvhBuilder, BvhParams, RayBox, STACK_SIZE};
+use crate::aabb::Aabb;
+use crate::accel::{AccelStats, Accelerator};
+use crate::bvh2::{Bvh, BvhBuilder, BvhParams, RayBox, STACK_SIZE};
+use crate::counters::Counters;
 use crate::counters::{count_node, skip_node};
+use crate::layout::{Layout, LayoutNode};
+use crate::primitives::{PrimitiveId, Primitives};
+use crate::ray::Ray;
 use crate::util::{offer_any, offer_closest, prefetch, widen_up};
-use crate::{
-    Aabb, AccelStats, Accelerator, Counters, Layout, LayoutNode, PrimitiveId, Primitives, Ray, Vec3,
-};
+use glam::Vec3;
+use lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 
 /// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
@@ -184,7 +191,7 @@ impl WideBvh {
         while let Some((i, depth)) = todo.pop() {
             let n = &self.nodes[i];
             nodes[i].depth = depth;
-            for lane in (0..WIDTH).filter(|&l| n.child[l] != super::lanes::EMPTY) {
+            for lane in (0..WIDTH).filter(|&l| n.child[l] != lanes::EMPTY) {
                 let b = Aabb::new(
                     Vec3::from_array(std::array::from_fn(|a| n.bounds[MIN + a][lane])),
                     Vec3::from_array(std::array::from_fn(|a| n.bounds[MAX + a][lane])),
@@ -309,7 +316,7 @@ impl WideBvh {
             return;
         }
         #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx2() {
+        if lanes::has_avx2() {
             // SAFETY: the CPU has AVX2.
             unsafe { self.closest_avx2(ray, counters, leaf, prefetch_leaf) };
             return;
@@ -350,7 +357,7 @@ impl WideBvh {
             return false;
         }
         #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx2() {
+        if lanes::has_avx2() {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.occluded_avx2(ray, counters, leaf, prefetch_leaf) };
         }
@@ -389,7 +396,7 @@ impl WideBvh {
         L: FnMut(usize, usize, &mut Ray, &mut C),
         P: Fn(usize),
     {
-        use super::lanes::Avx2;
+        use lanes::Avx2;
         self.closest_in::<Avx2, C, L, P>(ray, counters, leaf, prefetch_leaf);
     }
 
@@ -411,7 +418,7 @@ impl WideBvh {
         L: FnMut(usize, usize, &Ray, &mut C) -> bool,
         P: Fn(usize),
     {
-        use super::lanes::Avx2;
+        use lanes::Avx2;
         self.occluded_in::<Avx2, C, L, P>(ray, counters, leaf, prefetch_leaf)
     }
 
@@ -441,7 +448,7 @@ impl WideBvh {
 
     /// The traversal number of a child slot: its node's index for a node,
     /// `nodes.len()` plus its first primitive slot for a leaf (unique, as
-    /// leaves own disjoint slots; [`crate::Layout::index`] makes it dense).
+    /// leaves own disjoint slots; [`crate::layout::Layout::index`] makes it dense).
     #[inline(always)]
     fn slot_number(&self, child: u32, count: u32) -> u32 {
         if count > 0 {
@@ -745,7 +752,10 @@ impl Entry for (u32, u32) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{intersect_triangle_sheared, RayCounts, RayShear, TriangleMesh, Vec3};
+    use crate::counters::RayCounts;
+    use crate::triangle::mesh::TriangleMesh;
+    use crate::triangle::watertight::{intersect_triangle_sheared, RayShear};
+    use glam::Vec3;
 
     /// A tilted, bumpy `n` by `n` grid of triangle pairs over the unit square.
     fn bumpy_grid(n: u32) -> TriangleMesh {

@@ -20,11 +20,11 @@
 
 use glam::{Vec3, Vec4};
 
-use crate::triangle::{
+use crate::ray::Ray;
+use crate::triangle::watertight::{
     certain_any_hit, hit_from_certain_edges, intersect_triangle_owned, intersect_triangle_sheared,
 };
-use crate::Ray;
-use crate::{RayShear, TriangleHit};
+use crate::triangle::watertight::{RayShear, TriangleHit};
 
 /// Triangles tested together.
 pub(crate) const LANES: usize = 4;
@@ -197,7 +197,8 @@ pub(crate) mod pair {
     use std::arch::x86_64::*;
 
     use super::{mixed_signs, EdgeVerdict, Tri4, LANES};
-    use crate::{Ray, RayShear};
+    use crate::ray::Ray;
+    use crate::triangle::watertight::RayShear;
 
     /// Verdicts for `tris[0]` (all four lanes used) and the first `count`
     /// triangles of `tris[1]`.
@@ -423,7 +424,7 @@ mod tests {
     }
 
     /// The edge-function bound of the behind-the-origin filter
-    /// (`certainly_behind` in `triangle.rs`) is never below the test's own,
+    /// (`certainly_behind` in `triangle/watertight.rs`) is never below the test's own,
     /// on the directions that stress it most (two or three equal
     /// magnitudes, so that the shear factors round to about 1) and on
     /// hostile vertices: `s (s C) 2^-18 >= m s 2^-18` wherever neither side
@@ -619,7 +620,7 @@ mod tests {
     /// pair stage.
     #[test]
     fn lanes_leave_an_underflowing_bound_to_the_full_test() {
-        let (ray, outside, neighbour) = crate::triangle::underflow_case();
+        let (ray, outside, neighbour) = crate::triangle::watertight::underflow_case();
         let s = RayShear::new(&ray);
         let packet = Tri4::new(&[outside, neighbour], &[0, 1]);
         let answers = |v: &EdgeVerdict| {
