@@ -27,20 +27,27 @@ pub(crate) fn widen_up(t: f32) -> f32 {
 /// rays on large structures).
 #[inline(always)]
 pub(crate) fn prefetch<T>(value: &T) {
+    prefetch_ptr(value as *const T);
+}
+
+/// [`prefetch`] of the `T` at `ptr`, which need not point at anything:
+/// a prefetch never faults, so a traversal can hint at a child's address
+/// without the bounds check of indexing.
+#[inline(always)]
+pub(crate) fn prefetch_ptr<T>(ptr: *const T) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let start: *const i8 = (value as *const T).cast();
+        let start: *const i8 = ptr.cast();
         let mut offset = 0;
         while offset < std::mem::size_of::<T>() {
-            // SAFETY: prefetching never faults and changes no memory; the
-            // addresses lie inside `value`.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.add(offset)) };
+            // SAFETY: prefetching never faults and changes no memory.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
             offset += 64;
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
+    let _ = ptr;
 }
 
 /// A value at most as large as the exact quantity that `t` approximates

@@ -30,7 +30,7 @@ use crate::triangle::mesh::TriangleMesh;
 use crate::triangle::watertight::{
     intersect_triangle_owned, intersect_triangle_sheared, RayShear, TriangleHit,
 };
-use crate::util::prefetch;
+use crate::util::prefetch_ptr;
 use crate::wide::packet::{one_octant, PACKET, PACKET16};
 use crate::wide::WideBvh;
 
@@ -196,7 +196,7 @@ impl TriangleBvh {
                     },
                 );
             },
-            |first| prefetch(&self.packets[first]),
+            |first| prefetch_ptr(self.packets.as_ptr().wrapping_add(first)),
         );
         best
     }
@@ -326,7 +326,7 @@ impl TriangleBvh {
                     |_, _, _| true,
                 )
             },
-            |first| prefetch(&self.packets[first]),
+            |first| prefetch_ptr(self.packets.as_ptr().wrapping_add(first)),
         )
     }
 
@@ -371,7 +371,7 @@ impl TriangleBvh {
                     },
                 )
             },
-            |first| prefetch(&self.packets[first]),
+            |first| prefetch_ptr(self.packets.as_ptr().wrapping_add(first)),
         );
     }
 
@@ -394,93 +394,109 @@ impl TriangleBvh {
         counters: &mut C,
         mut on_hit: impl FnMut(u32, TriangleHit, &mut Ray) -> bool,
     ) -> bool {
-        let packets = &self.packets[first..first + count.div_ceil(LANES)];
+        let packets = count.div_ceil(LANES);
         let mut i = 0;
-        while i < packets.len() {
-            let lanes = (count - i * LANES).min(LANES);
-            // Two packets in one AVX2 pass when the leaf has them (the edge
-            // stage does not depend on `tmax`, so computing the second
-            // verdict before the first packet's hits changes nothing).
+        while i < packets {
+            let left = count - i * LANES;
+            let a = self.tri4(first + i);
+            // Up to eight triangles (two packets) in one AVX2 pass; a leaf's
+            // last lone packet goes in twice with only its lanes valid. The
+            // edge stage does not depend on `tmax`, so computing the second
+            // packet's verdict before the first packet's hits changes
+            // nothing.
             #[cfg(target_arch = "x86_64")]
-            if i + 1 < packets.len() && crate::wide::lanes::has_avx2() {
-                let second = (count - (i + 1) * LANES).min(LANES);
-                let pair = [&packets[i], &packets[i + 1]];
+            if crate::wide::lanes::has_avx2() {
+                let b = if left > LANES {
+                    self.tri4(first + i + 1)
+                } else {
+                    a
+                };
+                let valid = if left >= 2 * LANES {
+                    0xff
+                } else {
+                    (1u32 << left) - 1
+                };
+                for _ in 0..valid.count_ones() {
+                    counters.test();
+                }
                 // SAFETY: the CPU has AVX2.
-                let [v0, v1] = unsafe { pair::edge_stage_pair(ray, shear, pair, second) };
-                if finish::<ANY_HIT, OWNED, C>(
-                    &v0,
-                    pair[0],
-                    lanes,
-                    ray,
-                    shear,
-                    counters,
-                    &mut on_hit,
-                ) || finish::<ANY_HIT, OWNED, C>(
-                    &v1,
-                    pair[1],
-                    second,
-                    ray,
-                    shear,
-                    counters,
-                    &mut on_hit,
-                ) {
-                    return true;
+                let verdict = unsafe { pair::edge_stage8(ray, shear, [a, b], valid, false) };
+                if let Some(verdict) = verdict {
+                    let triangle = |k: usize| {
+                        let p = if k < LANES { a } else { b };
+                        (p.ids[k % LANES], p.triangle(k % LANES))
+                    };
+                    let todo = verdict.candidates_of(valid);
+                    if finish::<ANY_HIT, OWNED, 8>(
+                        &verdict,
+                        todo,
+                        triangle,
+                        ray,
+                        shear,
+                        &mut on_hit,
+                    ) {
+                        return true;
+                    }
                 }
                 i += 2;
                 continue;
             }
-            let verdict = edge_stage(ray, shear, &packets[i], lanes);
-            if finish::<ANY_HIT, OWNED, C>(
-                &verdict,
-                &packets[i],
-                lanes,
-                ray,
-                shear,
-                counters,
-                &mut on_hit,
-            ) {
+            let lanes = left.min(LANES);
+            for _ in 0..lanes {
+                counters.test();
+            }
+            let verdict = edge_stage(ray, shear, a, lanes);
+            let triangle = |k: usize| (a.ids[k], a.triangle(k));
+            let todo = verdict.candidates(lanes);
+            if finish::<ANY_HIT, OWNED, LANES>(&verdict, todo, triangle, ray, shear, &mut on_hit) {
                 return true;
             }
             i += 1;
         }
         false
     }
+
+    /// Triangle packet `i` (of a leaf).
+    #[inline(always)]
+    fn tri4(&self, i: usize) -> &Tri4 {
+        debug_assert!(i < self.packets.len());
+        // SAFETY: leaves name their packets: `build` gives each leaf
+        // `ceil(count / 4)` packets from the first one its reference names
+        // (`packet_of`), and the traversal asks only for those.
+        unsafe { self.packets.get_unchecked(i) }
+    }
 }
 
-/// The candidates of one packet (the `verdict` of its first `lanes`
-/// triangles), in lane order, through the full test; stops and returns
-/// `true` as soon as `on_hit` does. A function rather than a closure so that
-/// it can be forced inline into the traversal.
+/// The candidates `todo` of one edge-stage `verdict` (lane `k`'s triangle
+/// and id from `triangle(k)`), in lane order, through the full test; stops
+/// and returns `true` as soon as `on_hit` does. A function rather than a
+/// closure so that it can be forced inline into the traversal.
 #[inline(always)]
-fn finish<const ANY_HIT: bool, const OWNED: bool, C: Counters>(
-    verdict: &EdgeVerdict,
-    packet: &Tri4,
-    lanes: usize,
+fn finish<const ANY_HIT: bool, const OWNED: bool, const N: usize>(
+    verdict: &EdgeVerdict<N>,
+    mut todo: u32,
+    triangle: impl Fn(usize) -> (u32, [Vec3; 3]),
     ray: &mut Ray,
     shear: &RayShear,
-    counters: &mut C,
     on_hit: &mut impl FnMut(u32, TriangleHit, &mut Ray) -> bool,
 ) -> bool {
-    for _ in 0..lanes {
-        counters.test();
-    }
-    let mut todo = verdict.candidates(lanes);
     while todo != 0 {
         let k = todo.trailing_zeros() as usize;
         todo &= todo - 1;
+        let (id, tri) = triangle(k);
         // An any-hit query stops at a blocker certain without the `f64`
         // distance (its caller would stop at any hit `on_hit` is given), and
         // passes over a triangle certainly behind the origin (the full test
         // would turn it away first thing).
         if ANY_HIT {
-            match verdict.any_hit_certainty(k, ray, shear, packet) {
+            match verdict.any_hit_certainty(k, ray, shear, tri) {
                 Some(true) => return true,
                 Some(false) => continue,
                 None => {}
             }
         }
-        if let Some(hit) = verdict.finish::<OWNED>(k, ray, shear, packet) {
-            if on_hit(packet.ids[k], hit, ray) {
+        if let Some(hit) = verdict.finish::<OWNED>(k, ray, shear, tri) {
+            if on_hit(id, hit, ray) {
                 return true;
             }
         }

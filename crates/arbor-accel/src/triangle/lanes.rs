@@ -72,14 +72,15 @@ impl Tri4 {
     }
 }
 
-/// The edge stage's verdict for up to [`LANES`] triangles.
-pub(crate) struct EdgeVerdict {
-    u: [f32; LANES],
-    v: [f32; LANES],
-    w: [f32; LANES],
+/// The edge stage's verdict for up to `N` triangles ([`LANES`] in one
+/// packet, twice that for the AVX2 stage of two packets).
+pub(crate) struct EdgeVerdict<const N: usize = LANES> {
+    u: [f32; N],
+    v: [f32; N],
+    w: [f32; N],
     /// The lanes' `s` (largest L1 norm of a relative vertex), bit for bit
     /// the scalar test's for every decided lane.
-    scale: [f32; LANES],
+    scale: [f32; N],
     /// Lanes certainly missed (the scalar test would return `None`).
     miss: u32,
     /// Lanes whose edge functions certainly put the ray inside: finish with
@@ -196,21 +197,43 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
 pub(crate) mod pair {
     use std::arch::x86_64::*;
 
-    use super::{mixed_signs, EdgeVerdict, Tri4, LANES};
+    #[cfg(test)]
+    use super::LANES;
+    use super::{mixed_signs, EdgeVerdict, Tri4};
     use crate::ray::Ray;
     use crate::triangle::watertight::RayShear;
 
-    /// Verdicts for `tris[0]` (all four lanes used) and the first `count`
-    /// triangles of `tris[1]`.
+    /// The verdict for the triangles of `tris[0]` (lanes 0 to 3) and
+    /// `tris[1]` (lanes 4 to 7) named by the bits of `valid`, or `None`
+    /// when none of them is a candidate and not `all`: the common case,
+    /// which then stores nothing. A leaf of up to four triangles passes its
+    /// packet twice with only the low lanes valid.
     ///
     /// Not a `#[target_feature]` function (those cannot be forced inline,
-    /// and a call passing both verdicts back through memory cost more than
+    /// and a call passing the verdict back through memory cost more than
     /// the pass saves): it is inlined into the leaf test, which the AVX2
     /// traversal (`WideBvh::closest_avx2`) inlines in turn.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[inline(always)]
+    pub(crate) unsafe fn edge_stage8(
+        ray: &Ray,
+        s: &RayShear,
+        tris: [&Tri4; 2],
+        valid: u32,
+        all: bool,
+    ) -> Option<EdgeVerdict<8>> {
+        debug_assert!(valid != 0 && valid <= 0xff);
+        by_permutation!(s, stage(ray, s, tris, valid, all))
+    }
+
+    /// [`edge_stage8`] as two four-lane verdicts, for comparing with
+    /// [`super::edge_stage`] (`count` triangles of `tris[1]` in use).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(test)]
     pub(crate) unsafe fn edge_stage_pair(
         ray: &Ray,
         s: &RayShear,
@@ -218,7 +241,21 @@ pub(crate) mod pair {
         count: usize,
     ) -> [EdgeVerdict; 2] {
         debug_assert!((1..=LANES).contains(&count));
-        by_permutation!(s, stage(ray, s, tris, count))
+        let valid = 0xf | ((1u32 << count) - 1) << LANES;
+        let v = edge_stage8(ray, s, tris, valid, true).expect("all verdicts");
+        let half = |h: usize| {
+            let part = |x: &[f32; 8]| [x[4 * h], x[4 * h + 1], x[4 * h + 2], x[4 * h + 3]];
+            let bits = |m: u32| (m >> (LANES * h)) & 0xf;
+            EdgeVerdict {
+                u: part(&v.u),
+                v: part(&v.v),
+                w: part(&v.w),
+                scale: part(&v.scale),
+                miss: bits(v.miss),
+                inside: bits(v.inside),
+            }
+        };
+        [half(0), half(1)]
     }
 
     /// # Safety
@@ -228,8 +265,9 @@ pub(crate) mod pair {
         ray: &Ray,
         s: &RayShear,
         [t0, t1]: [&Tri4; 2],
-        count: usize,
-    ) -> [EdgeVerdict; 2] {
+        valid: u32,
+        all: bool,
+    ) -> Option<EdgeVerdict<8>> {
         // No closures here: a closure is compiled without AVX2 and would
         // call each intrinsic instead of inlining it; these helpers are
         // forced inline into the AVX2 traversal.
@@ -252,32 +290,30 @@ pub(crate) mod pair {
             _mm256_and_ps(above(u, bound), above(v, bound)),
             _mm256_and_ps(above(w, bound), normal),
         );
-        let decided = _mm256_movemask_ps(decided) as u32;
+        let decided = _mm256_movemask_ps(decided) as u32 & valid;
         let (nu, nv, nw) = (
             _mm256_movemask_ps(u) as u32,
             _mm256_movemask_ps(v) as u32,
             _mm256_movemask_ps(w) as u32,
         );
         let mixed = mixed_signs(nu, nv, nw);
-        let decided = decided & (0xf | ((1u32 << count) - 1) << LANES);
-        let mut rows = [[0.0f32; 8]; 4];
-        _mm256_storeu_ps(rows[0].as_mut_ptr(), u);
-        _mm256_storeu_ps(rows[1].as_mut_ptr(), v);
-        _mm256_storeu_ps(rows[2].as_mut_ptr(), w);
-        _mm256_storeu_ps(rows[3].as_mut_ptr(), scale);
-        let half = |h: usize| {
-            let part = |x: &[f32; 8]| [x[4 * h], x[4 * h + 1], x[4 * h + 2], x[4 * h + 3]];
-            let bits = |m: u32| (m >> (LANES * h)) & 0xf;
-            EdgeVerdict {
-                u: part(&rows[0]),
-                v: part(&rows[1]),
-                w: part(&rows[2]),
-                scale: part(&rows[3]),
-                miss: bits(decided & mixed),
-                inside: bits(decided & !mixed),
-            }
+        let miss = decided & mixed;
+        if !all && valid & !miss == 0 {
+            return None;
+        }
+        let row = |x: __m256| {
+            let mut r = [0.0f32; 8];
+            _mm256_storeu_ps(r.as_mut_ptr(), x);
+            r
         };
-        [half(0), half(1)]
+        Some(EdgeVerdict {
+            u: row(u),
+            v: row(v),
+            w: row(w),
+            scale: row(scale),
+            miss,
+            inside: decided & !mixed,
+        })
     }
 
     /// Vertex `j` of both packets: its sheared coordinates and the L1 norm
@@ -324,11 +360,18 @@ pub(crate) mod pair {
     }
 }
 
-impl EdgeVerdict {
-    /// The lanes the edge stage did not reject, as a bit set.
+impl<const N: usize> EdgeVerdict<N> {
+    /// The lanes of the first `count` the edge stage did not reject, as a
+    /// bit set.
     #[inline(always)]
     pub(crate) fn candidates(&self, count: usize) -> u32 {
-        !self.miss & ((1u32 << count) - 1)
+        self.candidates_of((1u32 << count) - 1)
+    }
+
+    /// The lanes of `valid` the edge stage did not reject.
+    #[inline(always)]
+    pub(crate) fn candidates_of(&self, valid: u32) -> u32 {
+        valid & !self.miss
     }
 
     /// For an any-hit query, what lane `k` (a candidate) is without the
@@ -342,16 +385,16 @@ impl EdgeVerdict {
         k: usize,
         ray: &Ray,
         s: &RayShear,
-        tris: &Tri4,
+        tri: [Vec3; 3],
     ) -> Option<bool> {
         if self.inside & (1 << k) == 0 {
             return None;
         }
         let edges = [self.u[k], self.v[k], self.w[k]];
-        certain_any_hit(ray, s, tris.triangle(k), edges, self.scale[k])
+        certain_any_hit(ray, s, tri, edges, self.scale[k])
     }
 
-    /// The full test of lane `k` (a candidate) against `tri`: exactly what
+    /// The full test of lane `k` (a candidate), the triangle `tri`: exactly what
     /// [`intersect_triangle_sheared`] answers for it, or with `OWNED`
     /// [`intersect_triangle_owned`] (the two differ only where an edge
     /// function is exactly zero, which a lane with certain signs never has).
@@ -361,9 +404,8 @@ impl EdgeVerdict {
         k: usize,
         ray: &Ray,
         s: &RayShear,
-        tris: &Tri4,
+        [p0, p1, p2]: [Vec3; 3],
     ) -> Option<TriangleHit> {
-        let [p0, p1, p2] = tris.triangle(k);
         if self.inside & (1 << k) != 0 {
             let edges = [self.u[k], self.v[k], self.w[k]];
             hit_from_certain_edges(ray, s, p0, p1, p2, edges, self.scale[k])
@@ -533,7 +575,8 @@ mod tests {
                     if verdict.candidates(LANES) & (1 << k) == 0 {
                         continue;
                     }
-                    let blocks = verdict.any_hit_certainty(k, &ray, &s, &packet) == Some(true);
+                    let blocks =
+                        verdict.any_hit_certainty(k, &ray, &s, packet.triangle(k)) == Some(true);
                     let hit = intersect_triangle_sheared(&ray, &s, a, b, c);
                     if blocks {
                         let h = hit.unwrap_or_else(|| panic!("{ray:?} {:?}: no hit", [a, b, c]));
@@ -626,7 +669,7 @@ mod tests {
         let answers = |v: &EdgeVerdict| {
             [0, 1].map(|k| {
                 (v.candidates(2) & (1 << k) != 0)
-                    .then(|| v.finish::<false>(k, &ray, &s, &packet))
+                    .then(|| v.finish::<false>(k, &ray, &s, packet.triangle(k)))
                     .flatten()
             })
         };
@@ -687,7 +730,7 @@ mod tests {
                 assert_eq!(packed.triangle(k).map(f32x3_bits), tri.map(f32x3_bits));
                 let scalar = intersect_triangle_sheared(&ray, &s, tri[0], tri[1], tri[2]);
                 let lane = if verdict.candidates(count) & (1 << k) != 0 {
-                    verdict.finish::<false>(k, &ray, &s, &packed)
+                    verdict.finish::<false>(k, &ray, &s, packed.triangle(k))
                 } else {
                     rejected += 1;
                     None

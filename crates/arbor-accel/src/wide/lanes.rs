@@ -280,6 +280,8 @@ mod avx2 {
     pub(crate) struct Avx2 {
         origin: [__m256; 3],
         inv: [__m256; 3],
+        /// `-inv`, for the fast path's memory-operand form.
+        neg_inv: [__m256; 3],
         tmin: __m256,
         near: [usize; 3],
         far: [usize; 3],
@@ -301,6 +303,11 @@ mod avx2 {
                         _mm256_set1_ps(inv.x),
                         _mm256_set1_ps(inv.y),
                         _mm256_set1_ps(inv.z),
+                    ],
+                    neg_inv: [
+                        _mm256_set1_ps(-inv.x),
+                        _mm256_set1_ps(-inv.y),
+                        _mm256_set1_ps(-inv.z),
                     ],
                     tmin: _mm256_set1_ps(ray.tmin),
                     near,
@@ -341,14 +348,20 @@ mod avx2 {
                             ),
                         )
                     } else {
+                        // `(origin - plane) * -inv` is bit for bit
+                        // `(plane - origin) * inv` (negation is exact and
+                        // rounding symmetric), and lets each row be a memory
+                        // operand of the subtraction instead of a load.
+                        // The rows exist: `near_far_rows` names rows 0..6.
+                        let plane = |r: usize| n.bounds.as_ptr().add(r).cast::<f32>();
                         (
                             _mm256_mul_ps(
-                                _mm256_sub_ps(row(self.near[a]), self.origin[a]),
-                                self.inv[a],
+                                _mm256_sub_ps(self.origin[a], _mm256_loadu_ps(plane(self.near[a]))),
+                                self.neg_inv[a],
                             ),
                             _mm256_mul_ps(
-                                _mm256_sub_ps(row(self.far[a]), self.origin[a]),
-                                self.inv[a],
+                                _mm256_sub_ps(self.origin[a], _mm256_loadu_ps(plane(self.far[a]))),
+                                self.neg_inv[a],
                             ),
                         )
                     };

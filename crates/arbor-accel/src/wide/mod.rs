@@ -50,7 +50,7 @@ use crate::counters::{count_node, skip_node};
 use crate::layout::{Layout, LayoutNode};
 use crate::primitives::{PrimitiveId, Primitives};
 use crate::ray::Ray;
-use crate::util::{offer_any, offer_closest, prefetch, widen_up};
+use crate::util::{offer_any, offer_closest, prefetch_ptr, widen_up};
 use glam::Vec3;
 use lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
 
@@ -480,12 +480,23 @@ impl WideBvh {
         }
     }
 
+    /// Node `i`, which a traversal reached through a child reference.
+    #[inline(always)]
+    fn node(&self, i: u32) -> &Node8 {
+        debug_assert!((i as usize) < self.nodes.len());
+        // SAFETY: child references name nodes of this tree: `collapse`
+        // writes each node's children after pushing them, and nothing
+        // changes node references afterwards (`into_leaf_storage` rewrites
+        // leaf references only).
+        unsafe { self.nodes.get_unchecked(i as usize) }
+    }
+
     /// Starts loading child `lane` of `n`: its node, or through
     /// `prefetch_leaf` its first primitives.
     #[inline(always)]
     fn prefetch_child(&self, n: &Node8, lane: usize, prefetch_leaf: &impl Fn(usize)) {
         if n.count[lane] == 0 {
-            prefetch(&self.nodes[n.child[lane] as usize]);
+            prefetch_ptr(self.nodes.as_ptr().wrapping_add(n.child[lane] as usize));
         } else {
             prefetch_leaf(n.child[lane] as usize);
         }
@@ -566,7 +577,7 @@ impl WideBvh {
                 leaf(child as usize, count as usize, &mut ray, counters);
                 cull = widen_up(ray.tmax);
             } else {
-                let n = &self.nodes[child as usize];
+                let n = self.node(child);
                 let (tnear, bits) = lanes.hit::<NAN_SAFE>(n, cull);
                 self.skip_missed(counters, n, bits);
                 if bits.is_power_of_two() {
@@ -646,7 +657,7 @@ impl WideBvh {
                     return true;
                 }
             } else {
-                let n = &self.nodes[child as usize];
+                let n = self.node(child);
                 let (_, mut bits) = lanes.hit::<NAN_SAFE>(n, wide);
                 self.skip_missed(counters, n, bits);
                 if bits.is_power_of_two() {
