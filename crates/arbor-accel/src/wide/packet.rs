@@ -72,15 +72,17 @@ pub fn one_octant(rays: &[Ray]) -> bool {
 }
 
 /// Whether `rays` look like a stream of camera rays, worth offering to
-/// [`crate::mesh::triangle_bvh::TriangleBvh::packet`] in eights: at least half of the
-/// first 64 groups of eight have all their directions in one octant.
-/// Secondary rays (random directions) do not, and keep the plain per-ray
-/// loop, which is as fast for them as the offer (camera rays gain from it).
+/// [`crate::mesh::triangle_bvh::TriangleBvh::packet`] in eights: at least
+/// half of the first 64 groups of eight share one origin and have all their
+/// directions in one octant. Secondary rays (random directions) do not, nor
+/// do shadow rays toward one light (one octant, but origins all over the
+/// surface, for which packets measured up to a fifth slower), and keep the
+/// plain per-ray loop.
 pub(crate) fn looks_coherent(rays: &[Ray]) -> bool {
     let (mut groups, mut coherent) = (0, 0);
     for g in rays.chunks_exact(PACKET).take(64) {
         groups += 1;
-        coherent += usize::from(one_octant(g));
+        coherent += usize::from(one_octant(g) && g.iter().all(|r| r.origin == g[0].origin));
     }
     groups > 0 && 2 * coherent >= groups
 }
@@ -578,5 +580,17 @@ mod tests {
             .collect();
         assert!(!looks_coherent(&scattered));
         assert!(!looks_coherent(&camera[..PACKET - 1]));
+        // Shadow rays from the camera rays' hits toward one light share an
+        // octant but not an origin: single rays serve them better
+        // (docs/perf-log/2026-12-06-zen5-walk.md).
+        let light = Vec3::new(0.5, 4.0, 3.0);
+        let shadow: Vec<Ray> = camera
+            .iter()
+            .map(|r| {
+                let hit = r.origin + r.dir;
+                Ray::new(hit, light - hit, 1e-4, 1.0)
+            })
+            .collect();
+        assert!(!looks_coherent(&shadow));
     }
 }
