@@ -9,17 +9,17 @@ booleans become float64, float16 becomes float32. Tensors on a GPU, and
 values that are not real numbers, are a ValueError naming the argument.
 """
 
-import re
-
 import numpy as np
-
-_CPU = re.compile(r"cpu(:\d+)?", re.IGNORECASE)
 
 
 def is_cpu(device):
     """Whether ``device`` names the CPU: ``None``, an ``open3d.core.Device``
-    or ``torch.device`` of the CPU, or a string such as ``"CPU:0"``."""
-    return device is None or _CPU.fullmatch(str(device).strip()) is not None
+    or ``torch.device`` of the CPU, a string such as ``"CPU:0"``, or
+    anything else whose name says CPU (a JAX CPU device is "TFRT_CPU_0";
+    some libraries give the device as a method)."""
+    if callable(device):
+        device = device()
+    return device is None or "cpu" in str(device).lower()
 
 
 def check_device(device, what):

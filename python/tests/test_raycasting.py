@@ -180,7 +180,7 @@ def test_tensors_lists_and_arrays_give_the_same_answers():
     scene, _, _ = two_boxes()
     rays = np.array([[0.1, 0.2, -5, 0, 0, 1], [3.1, 0.2, -5, 0, 0, 2]], np.float32)
     want = scene.cast_rays(rays)
-    forms = [FakeTensor(rays), FakeTorch(rays), FakeTorch(rays, device="cpu")]
+    forms = [FakeTensor(rays), FakeTorch(rays), FakeTorch(rays, device="cpu"), FakeTensor(rays, "TFRT_CPU_0")]
     for given in forms + [rays.tolist(), rays.astype(np.float64)]:
         got = scene.cast_rays(given)
         for key in want:
