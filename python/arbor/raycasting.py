@@ -267,7 +267,7 @@ class RaycastingScene:
         points, shape = self._points(query_points)
         distance = self._scene().closest_points(points)["distance"]
         # A NaN point finds no triangle (distance inf); its distance is unknown.
-        pass  # distance[np.isnan(points).any(axis=1)] = np.nan
+        distance[np.isnan(points).any(axis=1)] = np.nan
         return answer(distance.reshape(shape))
 
     def compute_signed_distance(self, query_points, nthreads=0, nsamples=1):
