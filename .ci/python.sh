@@ -2,7 +2,9 @@
 # The Python package as a user installs it: `pip install ./python` into a
 # fresh virtual environment (maturin and PyO3 come from the registries),
 # then its pytest tests, which include trimesh 5.2's own ray tests run from
-# ../shared with arbor as trimesh's intersector. Any failure, a skipped test
+# ../shared with arbor as trimesh's intersector and Open3D 0.20's ray casting
+# tutorials run with arbor's RaycastingScene in place of Open3D's, compared
+# with Open3D's answers. Any failure, a skipped test
 # or pytest's exit 5 ("no tests ran") fails the script.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +17,13 @@ python3 -m venv "$work/venv"
 py="$work/venv/bin/python"
 "$py" -m pip install --quiet --upgrade pip
 "$py" -m pip install --quiet ./python
-"$py" -m pip install --quiet pytest trimesh==5.2.0 embreex scipy rtree manifold3d
+"$py" -m pip install --quiet pytest trimesh==5.2.0 embreex scipy rtree manifold3d open3d-cpu
+# open3d-cpu's library links Debian's libusb-1.0 (for its RealSense camera
+# support); without it `import open3d` fails and the Open3D drop-in tests,
+# which compare arbor.RaycastingScene with Open3D's, would be skipped.
+"$py" -c 'import open3d' 2>/dev/null ||
+  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libusb-1.0-0 >/dev/null; }
+"$py" -c 'import open3d'
 
 # The tests compare answers with `arbor trace`.
 cargo build --release -p arbor-cli

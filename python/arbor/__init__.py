@@ -11,9 +11,13 @@ parallel with the GIL released, over NumPy arrays::
 ``arbor.load_mesh(path)`` reads a mesh file with the loader of
 ``arbor trace``. ``arbor.render(path)`` renders a scene or model as
 ``arbor render`` does, into a ``(h, w, 3)`` float32 array of linear
-radiance, and ``arbor.write_image(path, image)`` writes it as PNG or EXR. ``arbor.trimesh.RayMeshIntersector`` is a drop-in ray
-intersector for trimesh and ``arbor.RaycastingScene`` follows Open3D's
-``RaycastingScene``.
+radiance, and ``arbor.write_image(path, image)`` writes it as PNG or EXR.
+
+Drop-ins (docs/python.md): ``arbor.RaycastingScene`` for Open3D's
+``open3d.t.geometry.RaycastingScene`` (Open3D tensors, arrays or lists in;
+NumPy arrays that also answer ``.numpy()`` out), and
+``arbor.trimesh.RayMeshIntersector`` for trimesh's ``mesh.ray``
+(``arbor.trimesh.install()`` for every new mesh).
 """
 
 from ._arbor import Mesh, load_mesh, render, write_image

@@ -1,49 +1,83 @@
 """An Open3D-shaped ray casting scene over arbor.
 
-``arbor.RaycastingScene`` follows ``open3d.t.geometry.RaycastingScene``:
+``arbor.RaycastingScene`` is a drop-in for ``open3d.t.geometry.RaycastingScene``:
 geometries are added with :meth:`RaycastingScene.add_triangles` and queried
-with rays given as ``(..., 6)`` arrays of origin and direction. Answers are
-NumPy arrays (Open3D returns tensors) with Open3D's keys, dtypes and miss
-values. All geometries are indexed together by one :class:`arbor.Mesh`,
-built on the first query after a change.
+with rays given as ``(..., 6)`` arrays of origin and direction, or points
+as ``(..., 3)`` arrays, any leading shape kept in the answers. Arguments
+may be NumPy arrays, ``open3d.core.Tensor`` objects, CPU torch tensors or
+nested lists. Answers have Open3D's keys, dtypes and miss values; they are
+NumPy arrays that also answer ``.numpy()``, ``.cpu()`` and ``.isfinite()``
+as Open3D's tensors do (:class:`arbor._answers.Answer`), so code written for
+either reads them. All geometries are indexed together by one
+:class:`arbor.Mesh`, built on the first query after a change.
 """
+
+import inspect
 
 import numpy as np
 
+from ._answers import answer, answers
 from ._arbor import Mesh
+from ._inputs import as_array, check_device, last_axis
+from ._pinhole import rays_from_look_at, rays_from_matrices
 
 #: The id of "no geometry" / "no triangle", as Open3D reports it.
 INVALID_ID = np.iinfo(np.uint32).max
+
+# create_rays_pinhole's two forms, told apart by their arguments.
+_PINHOLE_FORMS = [(inspect.signature(f), f) for f in (rays_from_matrices, rays_from_look_at)]
 
 
 def _as_arrays(vertex_positions, triangle_indices):
     """The vertex and index arrays of what ``add_triangles`` was given."""
     if triangle_indices is not None:
-        return vertex_positions, triangle_indices
+        return (
+            as_array(vertex_positions, "vertex_positions"),
+            as_array(triangle_indices, "triangle_indices", floats=False),
+        )
     mesh = vertex_positions
     if hasattr(mesh, "vertex") and hasattr(mesh, "triangle"):
-        # open3d.t.geometry.TriangleMesh: tensors behind attribute maps.
-        return mesh.vertex.positions.numpy(), mesh.triangle.indices.numpy()
+        # open3d.t.geometry.TriangleMesh: tensors behind attribute maps,
+        # absent in a mesh without vertices or triangles.
+        positions = mesh.vertex.positions if "positions" in mesh.vertex else np.zeros((0, 3))
+        indices = mesh.triangle.indices if "indices" in mesh.triangle else np.zeros((0, 3), np.int64)
+        return as_array(positions, "vertex positions"), as_array(indices, "triangle indices", floats=False)
     if hasattr(mesh, "vertices") and (hasattr(mesh, "triangles") or hasattr(mesh, "faces")):
         # open3d.geometry.TriangleMesh (triangles) or a trimesh (faces).
         faces = mesh.triangles if hasattr(mesh, "triangles") else mesh.faces
-        return np.asarray(mesh.vertices), np.asarray(faces)
+        return as_array(mesh.vertices, "vertices"), as_array(faces, "triangles", floats=False)
     raise TypeError(
         "add_triangles: expected (vertex_positions, triangle_indices) arrays "
         "or a triangle mesh"
     )
 
 
+def _bound(value, what):
+    """A ray bound: a number as it is (the fast path), else an array."""
+    if isinstance(value, (int, float)):
+        return value
+    return as_array(value, what)
+
+
+def _check_nsamples(nsamples):
+    """Raises as Open3D does unless ``nsamples`` is a positive odd integer."""
+    if not isinstance(nsamples, (int, np.integer)) or nsamples < 1 or nsamples % 2 == 0:
+        raise ValueError(f"nsamples: expected a positive odd integer, got {nsamples!r}")
+
+
 class RaycastingScene:
     """A scene of triangle meshes for ray casting, shaped like Open3D's.
 
     ``nthreads`` is accepted for compatibility; queries use arbor's thread
-    pool (all cores, or ``RAYON_NUM_THREADS``).
+    pool (all cores, or ``RAYON_NUM_THREADS``). ``device`` may be left out
+    or name the CPU (``open3d.core.Device("CPU:0")`` or ``"CPU:0"``); any
+    other device is a ValueError, arbor running on the CPU.
     """
 
     INVALID_ID = INVALID_ID
 
-    def __init__(self, nthreads=0):
+    def __init__(self, nthreads=0, device=None):
+        check_device(device, "RaycastingScene")
         self._vertices = []
         self._faces = []
         self._mesh = None
@@ -54,10 +88,10 @@ class RaycastingScene:
         """Adds a mesh; returns its geometry id (0, 1, ...).
 
         Takes ``(n, 3)`` float vertex positions and ``(m, 3)`` integer
-        triangle indices, or one mesh object (Open3D's tensor or legacy
-        ``TriangleMesh``, or anything with ``vertices`` and ``faces``).
-        Raises ValueError for wrong shapes or dtypes, NaN positions or an
-        index out of range.
+        triangle indices (arrays, tensors or lists), or one mesh object
+        (Open3D's tensor or legacy ``TriangleMesh``, or anything with
+        ``vertices`` and ``faces``). Raises ValueError for wrong shapes or
+        dtypes, NaN positions, an index out of range or a GPU device.
         """
         vertices, faces = _as_arrays(vertex_positions, triangle_indices)
         # Checked now, so the error points at the call that caused it.
@@ -95,11 +129,36 @@ class RaycastingScene:
     @staticmethod
     def _rays(rays):
         """Origins and directions of ``(..., 6)`` rays, and the leading shape."""
-        rays = np.asarray(rays)
-        if rays.ndim < 1 or rays.shape[-1] != 6:
-            raise ValueError(f"rays: expected an array of shape (..., 6), got shape {rays.shape}")
-        flat = rays.reshape(-1, 6)
-        return flat[:, :3], flat[:, 3:], rays.shape[:-1]
+        flat, shape = last_axis(rays, "rays", 6)
+        return flat[:, :3], flat[:, 3:], shape
+
+    @staticmethod
+    def create_rays_pinhole(*args, **kwargs):
+        """The ``(height_px, width_px, 6)`` float32 rays of a pinhole camera,
+        as Open3D makes them, in either of Open3D's two forms:
+
+        ``create_rays_pinhole(intrinsic_matrix, extrinsic_matrix, width_px,
+        height_px)``: an upper triangular ``(3, 3)`` intrinsic matrix and a
+        rigid ``(4, 4)`` world-to-camera extrinsic matrix;
+
+        ``create_rays_pinhole(fov_deg, center, eye, up, width_px,
+        height_px)``: a horizontal field of view in degrees, the point
+        looked at, the camera's position and its up vector.
+
+        Each ray starts at the camera's centre and passes through a pixel's
+        centre; its direction has length 1 along the optical axis. Matrices
+        and vectors may be arrays, tensors or lists.
+        """
+        for signature, build in _PINHOLE_FORMS:
+            try:
+                bound = signature.bind(*args, **kwargs)
+            except TypeError:
+                continue
+            return answer(build(*bound.args, **bound.kwargs))
+        raise TypeError(
+            "create_rays_pinhole: expected (intrinsic_matrix, extrinsic_matrix, "
+            "width_px, height_px) or (fov_deg, center, eye, up, width_px, height_px)"
+        )
 
     def cast_rays(self, rays, nthreads=0):
         """The closest hit of each ray ``(ox, oy, oz, dx, dy, dz)``.
@@ -118,44 +177,38 @@ class RaycastingScene:
         uvs[miss] = 0
         normals = hits["normal"]
         normals[miss] = 0
-        return {
-            "t_hit": hits["t"].reshape(shape),
-            "geometry_ids": geometry.reshape(shape),
-            "primitive_ids": primitive.reshape(shape),
-            "primitive_uvs": uvs.reshape(shape + (2,)),
-            "primitive_normals": normals.reshape(shape + (3,)),
-        }
-
-    @staticmethod
-    def _points(query_points):
-        """``(..., 3)`` query points as ``(k, 3)``, and the leading shape."""
-        points = np.asarray(query_points)
-        if points.ndim < 1 or points.shape[-1] != 3:
-            raise ValueError(
-                f"query_points: expected an array of shape (..., 3), got shape {points.shape}"
-            )
-        return points.reshape(-1, 3), points.shape[:-1]
+        return answers(
+            {
+                "t_hit": hits["t"].reshape(shape),
+                "geometry_ids": geometry.reshape(shape),
+                "primitive_ids": primitive.reshape(shape),
+                "primitive_uvs": uvs.reshape(shape + (2,)),
+                "primitive_normals": normals.reshape(shape + (3,)),
+            }
+        )
 
     def test_occlusions(self, rays, tnear=0.0, tfar=np.inf, nthreads=0):
         """Whether anything lies on each ray with ``tnear <= t <= tfar``:
         a bool array of the rays' leading shape."""
         origins, directions, shape = self._rays(rays)
-        return self._scene().occluded(origins, directions, tnear, tfar).reshape(shape)
+        tnear, tfar = _bound(tnear, "tnear"), _bound(tfar, "tfar")
+        return answer(self._scene().occluded(origins, directions, tnear, tfar).reshape(shape))
 
     def count_intersections(self, rays, nthreads=0):
         """How many times each ray crosses the surfaces (int32), each
         crossing once even where a ray passes through a shared edge or
         vertex."""
         origins, directions, shape = self._rays(rays)
-        return self._scene().count(origins, directions).astype(np.int32).reshape(shape)
+        return answer(self._scene().count(origins, directions).astype(np.int32).reshape(shape))
 
     def list_intersections(self, rays, nthreads=0):
         """Every crossing of every ray, sorted by ray, then distance.
 
         Returns a dict: ``ray_splits`` (uint32, one more than rays: ray
-        ``i``'s hits are entries ``ray_splits[i]:ray_splits[i + 1]``),
-        ``ray_ids``, ``geometry_ids``, ``primitive_ids`` (uint32),
-        ``primitive_uvs`` (float32 ``(h, 2)``) and ``t_hit`` (float32).
+        ``i``'s hits are entries ``ray_splits[i]:ray_splits[i + 1]``, rays
+        numbered in C order over their leading shape), ``ray_ids``,
+        ``geometry_ids``, ``primitive_ids`` (uint32), ``primitive_uvs``
+        (float32 ``(h, 2)``) and ``t_hit`` (float32).
         """
         origins, directions, _ = self._rays(rays)
         hits = self._scene().all_hits(origins, directions)
@@ -163,14 +216,21 @@ class RaycastingScene:
         counts = np.bincount(hits["ray"], minlength=len(origins))
         splits = np.zeros(len(origins) + 1, dtype=np.uint32)
         np.cumsum(counts, out=splits[1:])
-        return {
-            "ray_splits": splits,
-            "ray_ids": hits["ray"].astype(np.uint32),
-            "geometry_ids": geometry,
-            "primitive_ids": primitive,
-            "primitive_uvs": np.stack([hits["u"], hits["v"]], axis=-1),
-            "t_hit": hits["t"],
-        }
+        return answers(
+            {
+                "ray_splits": splits,
+                "ray_ids": hits["ray"].astype(np.uint32),
+                "geometry_ids": geometry,
+                "primitive_ids": primitive,
+                "primitive_uvs": np.stack([hits["u"], hits["v"]], axis=-1).reshape(-1, 2),
+                "t_hit": hits["t"],
+            }
+        )
+
+    @staticmethod
+    def _points(query_points):
+        """``(..., 3)`` query points as ``(k, 3)``, and the leading shape."""
+        return last_axis(query_points, "query_points", 3)
 
     def compute_closest_points(self, query_points, nthreads=0):
         """The closest point of the surfaces to each query point.
@@ -178,7 +238,7 @@ class RaycastingScene:
         Returns a dict: ``points`` (float32 ``(..., 3)``), ``geometry_ids``
         and ``primitive_ids`` (uint32), ``primitive_uvs`` (float32
         ``(..., 2)``) and ``primitive_normals`` (float32 ``(..., 3)``). In an
-        empty scene the ids are ``INVALID_ID``, the points NaN and the rest 0.
+        empty scene the ids are ``INVALID_ID`` and the rest 0, as in Open3D.
         """
         points, shape = self._points(query_points)
         near = self._scene().closest_points(points)
@@ -187,30 +247,56 @@ class RaycastingScene:
         found = triangle >= 0
         uvs = np.zeros((len(points), 2), np.float32)
         uvs[found] = np.stack([near["u"], near["v"]], axis=-1)[found]
-        normals = near["normal"]
+        closest, normals = near["point"], near["normal"]
+        closest[~found] = 0
         normals[~found] = 0
-        return {
-            "points": near["point"].reshape(shape + (3,)),
-            "geometry_ids": geometry.reshape(shape),
-            "primitive_ids": primitive.reshape(shape),
-            "primitive_uvs": uvs.reshape(shape + (2,)),
-            "primitive_normals": normals.reshape(shape + (3,)),
-        }
+        return answers(
+            {
+                "points": closest.reshape(shape + (3,)),
+                "geometry_ids": geometry.reshape(shape),
+                "primitive_ids": primitive.reshape(shape),
+                "primitive_uvs": uvs.reshape(shape + (2,)),
+                "primitive_normals": normals.reshape(shape + (3,)),
+            }
+        )
 
     def compute_distance(self, query_points, nthreads=0):
-        """The distance from each query point to the surfaces (float32)."""
+        """The distance from each query point to the surfaces (float32; inf
+        in an empty scene, NaN for a point with a NaN coordinate, as in
+        Open3D and :meth:`compute_signed_distance`)."""
         points, shape = self._points(query_points)
-        return self._scene().closest_points(points)["distance"].reshape(shape)
+        near = self._scene().closest_points(points)
+        distance = near["distance"]
+        # A NaN point finds no triangle (distance inf); its distance is
+        # unknown. Only points without a triangle are looked at: a pass over
+        # all of them would cost 2% of the query.
+        lost = np.flatnonzero(near["triangle"] < 0)
+        distance[lost[np.isnan(points[lost]).any(axis=1)]] = np.nan
+        return answer(distance.reshape(shape))
 
     def compute_signed_distance(self, query_points, nthreads=0, nsamples=1):
-        """The distance to the surfaces, negative inside (float32): the sign
-        is the exact parity of one ray's crossings, so ``nsamples`` (Open3D's
-        number of voting rays) is accepted and not needed."""
+        """The distance to the surfaces, negative inside (float32).
+
+        Inside is decided by the parity of one ray's crossings, which in
+        arbor is exact: its watertight triangle test counts a ray through
+        an edge or vertex shared by several triangles as one crossing, never
+        zero or two. Open3D's test can miscount there, so it votes over
+        ``nsamples`` rays; arbor's answer is the same for any ``nsamples``,
+        which is accepted (a positive odd integer, as Open3D requires) and
+        not needed.
+        """
+        _check_nsamples(nsamples)
         points, shape = self._points(query_points)
-        return self._scene().signed_distance(points).reshape(shape)
+        return answer(self._scene().signed_distance(points).reshape(shape))
 
     def compute_occupancy(self, query_points, nthreads=0, nsamples=1):
-        """1.0 for query points inside the surfaces, 0.0 outside (float32),
-        by the exact parity of one ray's crossings."""
+        """1.0 for query points inside the surfaces, 0.0 outside (float32).
+
+        Inside is the exact parity of one ray's crossings (see
+        :meth:`compute_signed_distance`): ``nsamples``, the number of rays
+        Open3D votes over, is accepted (a positive odd integer) and not
+        needed.
+        """
+        _check_nsamples(nsamples)
         points, shape = self._points(query_points)
-        return self._scene().contains(points).astype(np.float32).reshape(shape)
+        return answer(self._scene().contains(points).astype(np.float32).reshape(shape))

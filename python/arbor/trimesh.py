@@ -1,23 +1,44 @@
 """A drop-in ray intersector for trimesh, backed by arbor.
 
 ``mesh.ray = arbor.trimesh.RayMeshIntersector(mesh)`` makes trimesh cast
-its rays (``mesh.ray.intersects_*``, ``mesh.contains``) with arbor. The
-interface is that of trimesh 5.2's own intersectors; this module does not
-import trimesh. Hits are arbor's exact, watertight ones: a ray through an
-edge or vertex shared by several triangles crosses the surface once, so
-``multiple_hits`` reports each crossing once and ``contains_points`` is the
-exact parity of one ray's crossings.
+one mesh's rays (``mesh.ray.intersects_*``, ``mesh.contains``) with arbor;
+``arbor.trimesh.install()`` makes arbor the intersector of every mesh
+trimesh builds from then on. The interface is that of trimesh 5.2's own
+intersectors; only ``install`` imports trimesh. Hits are arbor's exact,
+watertight ones: a ray through an edge or vertex shared by several
+triangles crosses the surface once, so ``multiple_hits`` reports each
+crossing once and ``contains_points`` is the exact parity of one ray's
+crossings. Rays and points may be NumPy arrays (float32 and float64 ones
+are read without a copy), tensors or lists.
 """
 
 import numpy as np
 
 from ._arbor import Mesh
+from ._inputs import as_array
+
+
+def install():
+    """Makes ``arbor.trimesh.RayMeshIntersector`` the ``mesh.ray`` of every
+    ``trimesh.Trimesh`` created after the call, with or without embreex.
+
+    trimesh picks a new mesh's intersector from
+    ``trimesh.ray.ray_pyembree`` (when embreex is installed and
+    ``use_embree``) or ``trimesh.ray.ray_triangle``; both are pointed at
+    arbor's. Meshes that exist already keep theirs (``mesh.ray = ...``
+    changes one).
+    """
+    import trimesh.ray
+
+    trimesh.ray.ray_triangle.RayMeshIntersector = RayMeshIntersector
+    if trimesh.ray.has_embree:
+        trimesh.ray.ray_pyembree.RayMeshIntersector = RayMeshIntersector
 
 
 def _rays(ray_origins, ray_directions):
-    """Origins and directions as (n, 3) float64 arrays of equal shape."""
-    origins = np.asarray(ray_origins, dtype=np.float64)
-    directions = np.asarray(ray_directions, dtype=np.float64)
+    """Origins and directions as (n, 3) float arrays of equal shape."""
+    origins = as_array(ray_origins, "ray_origins")
+    directions = as_array(ray_directions, "ray_directions")
     if origins.shape != directions.shape:
         raise ValueError("Ray origin and direction don't match!")
     if origins.ndim == 1:
@@ -65,7 +86,8 @@ class RayMeshIntersector:
         """Where each ray meets the plane of its hit triangle, in float64 (as
         trimesh reports locations), or at its float32 ``t`` when the ray runs
         along that plane."""
-        o, d = origins[index_ray], directions[index_ray]
+        o = np.asarray(origins[index_ray], dtype=np.float64)
+        d = np.asarray(directions[index_ray], dtype=np.float64)
         tri = np.asarray(self.mesh.vertices, dtype=np.float64)[
             np.asarray(self.mesh.faces)[index_tri]
         ]
@@ -115,9 +137,11 @@ class RayMeshIntersector:
 
     def intersects_location(self, ray_origins, ray_directions, multiple_hits=True, **kwargs):
         """Where rays hit the mesh: ``locations`` ``(h, 3)`` float64,
-        ``index_ray`` and ``index_tri`` (int64), as :meth:`intersects_id`."""
+        ``index_ray`` and ``index_tri`` (int64), as :meth:`intersects_id`
+        (which gets ``max_hits`` and the other keywords)."""
+        kwargs["return_locations"] = True
         index_tri, index_ray, locations = self.intersects_id(
-            ray_origins, ray_directions, multiple_hits=multiple_hits, return_locations=True
+            ray_origins, ray_directions, multiple_hits=multiple_hits, **kwargs
         )
         return locations, index_ray, index_tri
 
@@ -134,7 +158,7 @@ class RayMeshIntersector:
     def contains_points(self, points, check_direction=None):
         """Whether each point is inside the mesh: the exact parity of one
         ray's crossings (``check_direction`` is accepted and not needed)."""
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        points = as_array(points, "points").reshape(-1, 3)
         return self._arbor().contains(points)
 
     def __getstate__(self):

@@ -107,3 +107,36 @@ def test_contains_points_is_exact_parity():
     np.testing.assert_array_equal(mesh.contains(points), [True, True, False, False])
     np.testing.assert_array_equal(mesh.ray.contains_points(points), [True, True, False, False])
     assert arbor.trimesh.RayMeshIntersector(trimesh.Trimesh()).contains_points(points).tolist() == [False] * 4
+
+
+def test_install_makes_arbor_the_intersector_of_new_meshes(monkeypatch):
+    class Other:
+        def __init__(self, mesh, **kwargs):
+            self.mesh = mesh
+
+    monkeypatch.setattr(trimesh.ray.ray_triangle, "RayMeshIntersector", Other)
+    monkeypatch.setattr(trimesh.ray.ray_pyembree, "RayMeshIntersector", Other)
+    before = trimesh.creation.box()
+    arbor.trimesh.install()
+    for use_embree in (True, False):
+        mesh = trimesh.creation.box(use_embree=use_embree)
+        assert isinstance(mesh.ray, arbor.trimesh.RayMeshIntersector)
+        assert mesh.contains([[0.0, 0, 0], [2.0, 0, 0]]).tolist() == [True, False]
+    assert isinstance(before.ray, Other)  # meshes made before keep theirs
+
+
+def test_intersects_location_passes_max_hits_on():
+    mesh = box_with_arbor()
+    origins = np.array([[0.0, 0.0, 5.0], [0.3, 0.2, 5.0]])
+    locations, index_ray, _ = mesh.ray.intersects_location(origins, np.tile(DOWN, (2, 1)), max_hits=1)
+    np.testing.assert_array_equal(index_ray, [0, 1])
+    np.testing.assert_allclose(locations[:, 2], [1, 1])
+
+
+def test_tensors_and_float32_rays():
+    mesh = box_with_arbor()
+    origins = np.array([[0.5, 0.5, 5.0]], np.float32)
+    first = mesh.ray.intersects_first(origins, DOWN.astype(np.float32))
+    assert first.tolist() == mesh.ray.intersects_first(origins.astype(float), DOWN).tolist() == [4]
+    with pytest.raises(ValueError, match="ray_origins: expected real numbers"):
+        mesh.ray.intersects_any([["a", "b", "c"]], DOWN)

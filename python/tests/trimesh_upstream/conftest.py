@@ -4,8 +4,9 @@ The tests are not copied: they are imported from the shared test data
 (``$ARBOR_SHARED/peers/trimesh-5.2/tests``, default ``../shared`` beside
 the repository) by ``test_trimesh_own.py``. Both of trimesh's intersectors,
 the pure-Python ``ray_triangle`` one and the Embree ``ray_pyembree`` one,
-are replaced by ``arbor.trimesh.RayMeshIntersector`` before they load, so
-every mesh they build casts its rays with arbor.
+are replaced by ``arbor.trimesh.RayMeshIntersector`` before they load
+(``arbor.trimesh.install()``), so every mesh they build casts its rays
+with arbor.
 """
 
 import os
@@ -27,8 +28,7 @@ UPSTREAM = SHARED / "peers" / "trimesh-5.2"
 if not isinstance(trimesh.ray.ray_pyembree, type(trimesh)):
     raise ImportError("embreex is needed to run trimesh's ray tests: pip install embreex")
 
-trimesh.ray.ray_triangle.RayMeshIntersector = arbor.trimesh.RayMeshIntersector
-trimesh.ray.ray_pyembree.RayMeshIntersector = arbor.trimesh.RayMeshIntersector
+arbor.trimesh.install()
 
 if (UPSTREAM / "tests" / "test_ray.py").is_file():
     # Imported as the package `tests`, as trimesh's tests import each other.
