@@ -4,16 +4,18 @@
 //!
 //! Two kinds of input:
 //!
-//! * a triangle mesh (`.obj`, `.msh`) is benched as `arbor trace` traces it:
-//!   `f32` rays, the watertight triangle test, one structure over the
-//!   triangles (what the Embree comparison measures);
+//! * a triangle mesh (`.msh`, `.obj`, `.ply`, `.stl`, `.gltf`, `.glb`) is
+//!   read and benched as `arbor trace` reads and traces it: the same loader,
+//!   `f32` rays, and the timed passes are [`MeshAccel`]'s batch calls (camera
+//!   rays in packets) that `arbor trace` times (what the Embree comparison
+//!   measures);
 //! * a scene (`.xml`) is benched through the renderer's two-level
 //!   [`Tracer`] over the flattened world primitives and placements, with
 //!   `f64` rays and exact tests (what `arbor render` pays per ray).
 //!
-//! Speed is timed with `NoCounters`; nodes and tests per ray come from a
-//! separate counted pass with `RayCounts`, so counting never slows the timed
-//! pass.
+//! Speed is timed without counting; nodes and tests per ray come from a
+//! separate counted pass, one ray at a time with `RayCounts`, so counting
+//! never slows the timed pass.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -21,7 +23,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
-use arbor::load::{Format, ObjRule};
+use arbor::load::Format;
 use arbor::scene::Scene;
 use arbor::tracer::{SplitCounters, Tracer, TracerOptions};
 use arbor_accel::{
@@ -43,7 +45,8 @@ const RAYS_PER_TASK: usize = 256;
 /// Arguments of `arbor bench`.
 #[derive(Args, Debug)]
 pub struct BenchArgs {
-    /// A triangle mesh (`.obj`, `.msh`) or a Cornell XML scene (`.xml`,
+    /// A triangle mesh (`.msh`, `.obj`, `.ply`, `.stl`, `.gltf`, `.glb`,
+    /// read as `arbor trace` reads it) or a Cornell XML scene (`.xml`,
     /// benched through the renderer's tracer).
     pub input: PathBuf,
     /// Accelerators: `all` (every one except the brute-force `list`) or a
@@ -200,10 +203,32 @@ trait Subject: Sync {
     fn surface(&self, b: &Self::Built, r: &Ray64) -> Option<(f64, DVec3)>;
     /// Camera rays.
     fn primary_rays(&self, size: u32) -> Vec<Ray64>;
+    /// The fastest of `repeat` timed passes of `rays` in seconds: by
+    /// default one ray at a time in parallel, without counting.
+    fn fastest_pass(&self, b: &Self::Built, kind: RayKind, rays: &[Self::Ray], repeat: u32) -> f64
+    where
+        Self: Sized,
+    {
+        fastest(repeat, || {
+            let (hits, _) = trace_pass::<Self, NoCounters>(self, b, kind, rays);
+            std::hint::black_box(hits);
+        })
+    }
+}
+
+/// The fastest of `repeat` runs of `pass`, in seconds.
+fn fastest(repeat: u32, mut pass: impl FnMut()) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..repeat {
+        let start = Instant::now();
+        pass();
+        best = best.min(start.elapsed().as_secs_f64());
+    }
+    best
 }
 
 /// A triangle mesh, traced exactly as `arbor trace` traces it (the same
-/// [`MeshAccel`] queries).
+/// [`MeshAccel`] batch queries, timed the same way).
 struct MeshSubject {
     vertices: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
@@ -257,6 +282,23 @@ impl Subject for MeshSubject {
             |(lo, hi), p| (lo.min(p.as_dvec3()), hi.max(p.as_dvec3())),
         );
         framing_rays(lo, hi, size)
+    }
+
+    /// What `arbor trace` times: the closest hits into an answer buffer
+    /// made once, occlusion as a fresh answer vector per pass.
+    fn fastest_pass(&self, b: &MeshAccel, kind: RayKind, rays: &[Ray], repeat: u32) -> f64 {
+        match kind {
+            RayKind::Shadow => fastest(repeat, || {
+                std::hint::black_box(b.occluded_batch(rays));
+            }),
+            _ => {
+                let mut hits = vec![None; rays.len()];
+                fastest(repeat, || {
+                    b.closest_batch_into(rays, &mut hits);
+                    std::hint::black_box(&hits);
+                })
+            }
+        }
     }
 }
 
@@ -505,13 +547,7 @@ fn measure<S: Subject>(
         .iter()
         .map(|&kind| {
             let rays: Vec<S::Ray> = sets.get(kind).iter().map(S::ray).collect();
-            let mut best = f64::INFINITY;
-            for _ in 0..repeat {
-                let start = Instant::now();
-                let (hits, _) = trace_pass::<S, NoCounters>(subject, built, kind, &rays);
-                std::hint::black_box(hits);
-                best = best.min(start.elapsed().as_secs_f64());
-            }
+            let best = subject.fastest_pass(built, kind, &rays, repeat);
             let (_, counts) = trace_pass::<S, RayCounts>(subject, built, kind, &rays);
             let n = rays.len();
             let per = |x: u64| if n == 0 { 0.0 } else { x as f64 / n as f64 };
@@ -537,34 +573,20 @@ enum Input {
     Scene(SceneSubject),
 }
 
-/// Reads the input by its format: `.xml` scenes and `.gltf`/`.glb` models
-/// (framed as `arbor render` frames them) go through the tracer; `.obj`,
-/// `.msh`, `.ply` and `.stl` are one mesh, OBJ under the fan rule as
-/// `arbor trace` reads it (so triangle numbering matches).
+/// Reads the input by its format: a Cornell `.xml` scene goes through the
+/// tracer; every mesh format (glTF as one mesh with its node transforms)
+/// is read by `arbor trace`'s loader, so triangle numbering and speed match.
 fn load_input(path: &Path) -> anyhow::Result<Input> {
-    let format = Format::from_path(path).map_err(|e| InputError(e.to_string()))?;
-    let scene = match format {
-        Format::Xml => Some(
-            arbor::load::load_cornell_scene(path)
-                .map_err(|e| InputError(e.to_string()))?
-                .scene,
-        ),
-        Format::Gltf | Format::Glb => Some(
-            arbor::load::load_model_scene(path)
-                .map_err(|e| InputError(e.to_string()))?
-                .0,
-        ),
-        _ => None,
-    };
-    if let Some(scene) = scene {
+    if Format::from_path(path).map_err(|e| InputError(e.to_string()))? == Format::Xml {
+        let scene = arbor::load::load_cornell_scene(path)
+            .map_err(|e| InputError(e.to_string()))?
+            .scene;
         let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS)
             .map_err(|e| InputError(e.to_string()))?;
         let primitives = flat.world.len() + flat.placements.len();
         return Ok(Input::Scene(SceneSubject { scene, primitives }));
     }
-    let mesh = arbor::load::load_mesh(path, ObjRule::Fan)
-        .map_err(|e| InputError(e.to_string()))?
-        .mesh;
+    let mesh = crate::batch::load_mesh(path)?;
     if mesh.triangles.is_empty() {
         return Err(InputError(format!("{}: the mesh has no triangles", path.display())).into());
     }
@@ -586,10 +608,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         crate::output::check_writable(p, "--json")?;
     }
-    let scene = matches!(
-        Format::from_path(&args.input),
-        Ok(Format::Xml | Format::Gltf | Format::Glb)
-    );
+    let scene = matches!(Format::from_path(&args.input), Ok(Format::Xml));
     if scene && args.build.quality != BuildQuality::Fast {
         return Err(InputError(format!(
             "--quality {}: a scene is benched through the renderer's tracer, which builds \

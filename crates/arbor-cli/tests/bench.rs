@@ -393,3 +393,73 @@ fn heatmap_bad_extension_exits_2() {
     assert!(!dir.path().join("img.png").exists());
     assert!(!dir.path().join("h.jpg").exists());
 }
+
+/// The camera rays `arbor bench` makes for a mesh bounded by `lo..hi`
+/// (`size` x `size` from a pinhole framing the bounding sphere), as a ray
+/// file of 32-byte records.
+fn framing_ray_file(lo: [f64; 3], hi: [f64; 3], size: u32) -> Vec<u8> {
+    use glam::DVec3;
+    let (lo, hi) = (DVec3::from(lo), DVec3::from(hi));
+    let center = (lo + hi) / 2.0;
+    let radius = ((hi - lo).length() / 2.0).max(1e-6);
+    let half = 22.5f64.to_radians();
+    let back = DVec3::new(0.45, 0.35, 1.0).normalize();
+    let eye = center + back * (radius / half.sin());
+    let u = DVec3::Y.cross(back).normalize();
+    let v = back.cross(u);
+    let (tan, n) = (half.tan(), size as f64);
+    let mut bytes = Vec::new();
+    for j in 0..size {
+        for i in 0..size {
+            let x = ((i as f64 + 0.5) / n * 2.0 - 1.0) * tan;
+            let y = (1.0 - (j as f64 + 0.5) / n * 2.0) * tan;
+            let d = (-back + x * u + y * v).normalize();
+            let record = [eye.x, eye.y, eye.z, 0.0, d.x, d.y, d.z, f64::INFINITY];
+            bytes.extend(record.iter().flat_map(|&f| (f as f32).to_le_bytes()));
+        }
+    }
+    bytes
+}
+
+/// `arbor bench` on a mesh times what `arbor trace` times (the batch
+/// queries, camera rays in packets): on the same camera rays, one thread,
+/// both report Mrays/s within a factor of three of each other (a generous
+/// bound: timings on a shared machine are noisy).
+#[test]
+fn bench_and_trace_report_the_same_speed_on_camera_rays() {
+    let dir = ball_folder(120, 160, None);
+    let text = fs::read_to_string(dir.path().join("ball.obj")).unwrap();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for line in text.lines().filter(|l| l.starts_with("v ")) {
+        for (a, w) in line.split_whitespace().skip(1).enumerate() {
+            let x: f64 = w.parse().unwrap();
+            (lo[a], hi[a]) = (lo[a].min(x), hi[a].max(x));
+        }
+    }
+    let size = 256;
+    fs::write(dir.path().join("cam.rays"), framing_ray_file(lo, hi, size)).unwrap();
+    let common = "--accel bvh-wide --threads 1 --repeat 5";
+    let bench = run(
+        dir.path(),
+        &format!("bench ball.obj --rays primary --size {size} --json b.json {common}"),
+    );
+    assert!(bench.status.success(), "{}", stderr(&bench));
+    let doc: Value =
+        serde_json::from_str(&fs::read_to_string(dir.path().join("b.json")).unwrap()).unwrap();
+    let primary = &doc["results"][0]["rays"]["primary"];
+    assert_eq!(primary["rays"].as_u64(), Some(u64::from(size * size)));
+    let benched = primary["mrays_per_s"].as_f64().unwrap();
+    let trace = run(
+        dir.path(),
+        &format!("trace --mesh ball.obj --rays cam.rays {common}"),
+    );
+    assert!(trace.status.success(), "{}", stderr(&trace));
+    let summary: Value = serde_json::from_slice(&trace.stdout).unwrap();
+    // Fastest pass against fastest pass (bench reports its fastest).
+    let rays = f64::from(size * size);
+    let traced = rays / (summary["trace_ms_min"].as_f64().unwrap() * 1e3);
+    assert!(
+        benched > 0.0 && traced > 0.0 && benched / traced < 3.0 && traced / benched < 3.0,
+        "bench {benched} Mrays/s, trace {traced} Mrays/s"
+    );
+}
