@@ -1,27 +1,10 @@
-//! Standard base64 (RFC 4648, with padding), for the picture and the
-//! heatmaps embedded in the page: a few lines, no dependency.
+//! Base64 for the data embedded in the page (the picture, the heatmaps,
+//! the per-pixel counts): standard RFC 4648 with padding, by the `base64`
+//! crate, and the per-pixel counts packed in their narrowest integer type.
 
-const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-
-/// `bytes` in base64.
+/// `bytes` in standard base64 with padding.
 pub fn encode(bytes: &[u8]) -> String {
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    ::base64::encode(bytes)
 }
 
 /// The narrowest unsigned type that holds every value up to `max`, by its
