@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
+use arbor::census::{Census, CensusError};
 use arbor::light::Light;
 use arbor::load::{Format, Model};
 use arbor::scene::{Scene, Variant};
@@ -63,13 +63,20 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
             None,
         ),
     };
-    let summary = Summary::new(&scene, model.as_ref());
+    // Everything is counted before anything is printed or written: a scene
+    // that cannot be counted (too deep, counts beyond 128 bits) is an input
+    // error with no output.
+    let located = |e: CensusError| InputError(format!("{name}: {e}"));
+    let census = Census::new(&scene.surfaces, scene.variant).map_err(located)?;
+    let summary = Summary::new(&scene, model.as_ref()).map_err(located)?;
+    let mut text = String::new();
     if let Some(model) = &model {
-        print!("{}", describe_model(&name, model, &summary)?);
+        text += &describe_model(&name, model, &summary)?;
     }
-    print!("{}", describe(&name, &scene, model.is_some(), args.depth)?);
+    text += &describe(&name, &scene, model.is_some(), args.depth, &census)?;
+    print!("{text}");
     if let Some(path) = &args.json {
-        let json = summary.to_json(&name, &scene, model.as_ref());
+        let json = summary.to_json(&name, &scene, model.as_ref(), &census);
         let text = serde_json::to_string_pretty(&json)? + "\n";
         crate::output::write_text(path, &text)?;
     }
@@ -89,22 +96,39 @@ struct Summary {
 }
 
 impl Summary {
-    fn new(scene: &Scene, model: Option<&Model>) -> Summary {
+    /// Counts over the DAG (each shared definition visited once, with the
+    /// number of times it is placed), never placement by placement.
+    fn new(scene: &Scene, model: Option<&Model>) -> Result<Summary, CensusError> {
         // A model's scene is its surfaces plus the automatic floor (last).
         let surfaces = match model {
             Some(m) => &m.surfaces[..],
             None => &scene.surfaces[..],
         };
+        let census = Census::new(surfaces, scene.variant)?;
+        let mut placed_vertices = 0u128;
+        census.for_each_leaf_once(&mut |leaf, uses| {
+            if let Surface::Mesh(m) = leaf {
+                let n = uses.saturating_mul(m.data.positions.len() as u128);
+                placed_vertices = placed_vertices.saturating_add(n);
+            }
+        });
         let mut summary = Summary {
-            bounds: arbor::load::frame::bounds(surfaces),
+            // Exact bounds (every placed vertex) while that is quick; past
+            // that, each definition's box carried through its placements.
+            bounds: if placed_vertices <= EXACT_BOUNDS_VERTICES {
+                arbor::load::frame::bounds(surfaces)
+            } else {
+                census.mesh_bounds()
+            },
             triangles: 0,
             vertices: 0,
             materials: Vec::new(),
         };
         let mut meshes = std::collections::HashSet::new();
-        for s in surfaces {
-            s.for_each_leaf(glam::DMat4::IDENTITY, &mut |leaf, _| {
-                let (shader, triangles) = match leaf {
+        {
+            census.for_each_leaf_once(&mut |leaf, uses| {
+                let uses = u64::try_from(uses).unwrap_or(u64::MAX);
+                let (shader, triangles, surfaces) = match leaf {
                     Surface::Mesh(m) => {
                         // A shared mesh counts once, as stored.
                         if !meshes.insert(Arc::as_ptr(&m.data) as usize) {
@@ -112,11 +136,11 @@ impl Summary {
                         }
                         summary.triangles += m.data.triangles.len() as u64;
                         summary.vertices += m.data.positions.len() as u64;
-                        (&m.shader, m.data.triangles.len() as u64)
+                        (&m.shader, m.data.triangles.len() as u64, 1)
                     }
-                    Surface::Sphere(x) => (&x.shader, 0),
-                    Surface::Box(x) => (&x.shader, 0),
-                    Surface::Cylinder(x) => (&x.shader, 0),
+                    Surface::Sphere(x) => (&x.shader, 0, uses),
+                    Surface::Box(x) => (&x.shader, 0, uses),
+                    Surface::Cylinder(x) => (&x.shader, 0, uses),
                     _ => return,
                 };
                 match summary
@@ -125,17 +149,25 @@ impl Summary {
                     .find(|(s, _, _)| Arc::ptr_eq(s, shader))
                 {
                     Some(entry) => {
-                        entry.1 += 1;
+                        entry.1 = entry.1.saturating_add(surfaces);
                         entry.2 += triangles;
                     }
-                    None => summary.materials.push((shader.clone(), 1, triangles)),
+                    None => summary
+                        .materials
+                        .push((shader.clone(), surfaces, triangles)),
                 }
             });
         }
-        summary
+        Ok(summary)
     }
 
-    fn to_json(&self, name: &str, scene: &Scene, model: Option<&Model>) -> serde_json::Value {
+    fn to_json(
+        &self,
+        name: &str,
+        scene: &Scene,
+        model: Option<&Model>,
+        census: &Census,
+    ) -> serde_json::Value {
         let v = |x: DVec3| json!([x.x, x.y, x.z]);
         let camera = &scene.camera;
         let floor = model
@@ -157,6 +189,11 @@ impl Summary {
             "bounds": self.bounds.map(|(lo, hi)| json!({"min": v(lo), "max": v(hi)})),
             "triangles": self.triangles,
             "vertices": self.vertices,
+            // Decimal strings: as placed, these exceed 64 bits (and JSON
+            // readers' doubles) in deeply instanced scenes.
+            "unique_primitives": census.unique_primitives.to_string(),
+            "placements": census.placements.to_string(),
+            "primitives_as_placed": census.placed_primitives.to_string(),
             "materials": self.materials.iter().map(|(shader, meshes, triangles)| {
                 let mut m = shader_json(shader);
                 m["surfaces"] = json!(meshes);
@@ -388,11 +425,20 @@ fn describe_model(name: &str, model: &Model, summary: &Summary) -> anyhow::Resul
     Ok(out)
 }
 
-/// The report for `scene`; for a model's scene (`model`), the camera,
-/// lights and floor are said to be automatic where they are.
-pub fn describe(name: &str, scene: &Scene, model: bool, depth: usize) -> anyhow::Result<String> {
-    let flat = FlattenedScene::new(scene, DEFAULT_MAX_PLACEMENTS)
-        .map_err(|e| InputError(e.to_string()))?;
+/// Above this many vertices as placed, `info` bounds a scene by carrying
+/// boxes through its placements instead of transforming every vertex.
+const EXACT_BOUNDS_VERTICES: u128 = 1 << 26;
+
+/// The report for `scene` (counted by `census`); for a model's scene
+/// (`model`), the camera, lights and floor are said to be automatic where
+/// they are.
+pub fn describe(
+    name: &str,
+    scene: &Scene,
+    model: bool,
+    depth: usize,
+    census: &Census,
+) -> anyhow::Result<String> {
     let mut out = String::new();
     if !model {
         let variant = match scene.variant {
@@ -451,17 +497,15 @@ pub fn describe(name: &str, scene: &Scene, model: bool, depth: usize) -> anyhow:
         "shared      {} placed more than once",
         plural(shared, "surface", "surfaces")
     )?;
-    writeln!(out, "primitives  {} unique", flat.unique_primitives())?;
-    writeln!(
-        out,
-        "placements  {} of shared geometry",
-        flat.placements.len()
-    )?;
-    writeln!(
-        out,
-        "as placed   {}",
-        plural(flat.instanced_primitives(), "primitive", "primitives")
-    )?;
+    writeln!(out, "primitives  {} unique", census.unique_primitives)?;
+    writeln!(out, "placements  {} of shared geometry", census.placements)?;
+    let placed = census.placed_primitives;
+    let noun = if placed == 1 {
+        "primitive"
+    } else {
+        "primitives"
+    };
+    writeln!(out, "as placed   {placed} {noun}")?;
     writeln!(out, "hierarchy")?;
     let mut shown = std::collections::HashMap::new();
     for s in surfaces {

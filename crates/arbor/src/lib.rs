@@ -28,6 +28,7 @@
 
 mod byte_table;
 pub mod camera;
+pub mod census;
 pub mod compare;
 pub mod default_scene;
 pub mod film;

@@ -227,3 +227,35 @@ fn bounded_surfaces_skip_work_and_change_nothing() {
         }
     }
 }
+
+/// The census (counting over the DAG) agrees with flattening (which
+/// enumerates placements) on every instanced scene here and the default.
+#[test]
+fn census_counts_agree_with_flattening() {
+    use arbor::census::Census;
+    let mut scenes = vec![
+        load(&format!("{HEAD}{NESTED}")),
+        arbor::default_scene::classroom(),
+        load(&format!(
+            r#"{HEAD}<surface type="Sphere" name="ball"><radius>0.7</radius></surface>
+            <surface type="Group"><translate>2 0 0</translate><surface ref="ball"/></surface></scene>"#
+        )),
+        load(&format!(
+            r#"{HEAD}<defs><surface type="Sphere" name="ball"/></defs>
+            <surface type="Group"><translate>1 0 0</translate><surface ref="ball"/></surface></scene>"#
+        )),
+    ];
+    let mut two_thousand_fifteen = load(&format!("{HEAD}{NESTED}"));
+    two_thousand_fifteen.variant = arbor::scene::Variant::Cornell2015;
+    scenes.push(two_thousand_fifteen);
+    for scene in &scenes {
+        let flat = FlattenedScene::new(scene, 1 << 20).unwrap();
+        let census = Census::new(&scene.surfaces, scene.variant).unwrap();
+        assert_eq!(census.unique_primitives, flat.unique_primitives() as u128);
+        assert_eq!(census.placements, flat.placements.len() as u128);
+        assert_eq!(
+            census.placed_primitives,
+            flat.instanced_primitives() as u128
+        );
+    }
+}
