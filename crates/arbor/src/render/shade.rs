@@ -143,67 +143,15 @@ impl<'a> Integrator<'a> {
                 texture,
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                self.lights(x, x + hit.shadow_offset, stats, |l, e| {
-                    let nl = n.dot(l);
-                    let h = (l + v).normalize();
-                    let nh = n.dot(h);
-                    if is2015 {
-                        if nl > 0.0 {
-                            (kd * nl + *specular * nh.max(0.0).powf(*exponent)) * e
-                        } else {
-                            DVec3::ZERO
-                        }
-                    } else {
-                        let mut c = DVec3::ZERO;
-                        if nl > 0.0 {
-                            c += kd * e * nl;
-                        }
-                        if nh > 0.0 {
-                            c += *specular * e * nh.powf(*exponent);
-                        }
-                        c
-                    }
-                })
+                self.phong(hit, v, kd, *specular, *exponent, stats)
             }
             Shader::Glazed {
                 refractive_index: eta,
                 substrate,
                 fresnel,
-            } => {
-                if is2015 {
-                    let f = fresnel_exact_2015(n.dot(v), *eta);
-                    let r = 2.0 * v.dot(n) * n - v;
-                    let below = self.shade(hit, substrate, ray, depth, contrib, stats);
-                    let reflected =
-                        self.trace_secondary(x, r, depth + 1, 1.0, RayKind::Reflection, stats);
-                    (1.0 - f) * below + f * reflected
-                } else {
-                    let r = (2.0 * n.dot(v) * n - v).normalize();
-                    let c = r.dot(n);
-                    let f = if c < 0.0 {
-                        0.0
-                    } else {
-                        match fresnel {
-                            Fresnel::Schlick => schlick(c, *eta),
-                            Fresnel::Exact => fresnel_exact(c, *eta),
-                        }
-                    };
-                    let reflected = if f > 0.0 {
-                        self.trace_secondary(
-                            x,
-                            r,
-                            depth + 1,
-                            contrib * f,
-                            RayKind::Reflection,
-                            stats,
-                        )
-                    } else {
-                        DVec3::ZERO
-                    };
-                    let below = self.shade(hit, substrate, ray, depth, contrib, stats);
-                    (1.0 - f) * below + f * reflected
-                }
-            }
+            } => self.glazed(
+                hit, *eta, substrate, *fresnel, ray, v, depth, contrib, stats,
+            ),
             Shader::Reflective {
                 reflectance,
                 substrate,
@@ -251,26 +199,126 @@ impl<'a> Integrator<'a> {
                 texture,
             } => {
                 let kd = texture_or(texture, hit, *diffuse);
-                let m2 = roughness * roughness;
-                self.lights(x, x + hit.shadow_offset, stats, |l, e| {
-                    let nl = n.dot(l);
-                    let nv = n.dot(v);
-                    if nl <= 0.0 || nv <= 0.0 {
-                        return DVec3::ZERO;
-                    }
-                    let h = (l + v).normalize();
-                    let nh = n.dot(h).max(1e-12);
-                    let vh = v.dot(h).max(1e-12);
-                    let nh2 = nh * nh;
-                    let beckmann =
-                        ((nh2 - 1.0) / (m2 * nh2)).exp() / (std::f64::consts::PI * m2 * nh2 * nh2);
-                    let g = 1f64.min(2.0 * nh * nv / vh).min(2.0 * nh * nl / vh);
-                    let f = fresnel_exact(vh, *refractive_index);
-                    let spec = f * beckmann * g / (std::f64::consts::PI * nl * nv);
-                    (kd + *specular * spec) * e * nl
-                })
+                self.cook_torrance(hit, v, kd, *specular, *roughness, *refractive_index, stats)
             }
         }
+    }
+
+    /// Phong (spec §6.2): the 2015 form sums both terms only for lights in
+    /// front of the surface; the 2010 form adds each term where its own
+    /// cosine is positive.
+    fn phong<S: RayStats>(
+        &self,
+        hit: &Hit,
+        v: DVec3,
+        kd: DVec3,
+        specular: DVec3,
+        exponent: f64,
+        stats: &mut S,
+    ) -> DVec3 {
+        let is2015 = self.scene.variant == Variant::Cornell2015;
+        let (x, n) = (hit.point, hit.normal);
+        self.lights(x, x + hit.shadow_offset, stats, |l, e| {
+            let nl = n.dot(l);
+            let h = (l + v).normalize();
+            let nh = n.dot(h);
+            if is2015 {
+                if nl > 0.0 {
+                    (kd * nl + specular * nh.max(0.0).powf(exponent)) * e
+                } else {
+                    DVec3::ZERO
+                }
+            } else {
+                let mut c = DVec3::ZERO;
+                if nl > 0.0 {
+                    c += kd * e * nl;
+                }
+                if nh > 0.0 {
+                    c += specular * e * nh.powf(exponent);
+                }
+                c
+            }
+        })
+    }
+
+    /// A glazed coat over `substrate` (spec §6.3): Fresnel-weighted mirror
+    /// reflection over the substrate's colour. The 2010 form skips the
+    /// reflected ray where the weight is zero, and traces it before the
+    /// substrate, as the reference renderer does.
+    #[allow(clippy::too_many_arguments)]
+    fn glazed<S: RayStats>(
+        &self,
+        hit: &Hit,
+        eta: f64,
+        substrate: &Shader,
+        fresnel: Fresnel,
+        ray: &Ray,
+        v: DVec3,
+        depth: u32,
+        contrib: f64,
+        stats: &mut S,
+    ) -> DVec3 {
+        let (x, n) = (hit.point, hit.normal);
+        if self.scene.variant == Variant::Cornell2015 {
+            let f = fresnel_exact_2015(n.dot(v), eta);
+            let r = 2.0 * v.dot(n) * n - v;
+            let below = self.shade(hit, substrate, ray, depth, contrib, stats);
+            let reflected = self.trace_secondary(x, r, depth + 1, 1.0, RayKind::Reflection, stats);
+            (1.0 - f) * below + f * reflected
+        } else {
+            let r = (2.0 * n.dot(v) * n - v).normalize();
+            let c = r.dot(n);
+            let f = if c < 0.0 {
+                0.0
+            } else {
+                match fresnel {
+                    Fresnel::Schlick => schlick(c, eta),
+                    Fresnel::Exact => fresnel_exact(c, eta),
+                }
+            };
+            let reflected = if f > 0.0 {
+                self.trace_secondary(x, r, depth + 1, contrib * f, RayKind::Reflection, stats)
+            } else {
+                DVec3::ZERO
+            };
+            let below = self.shade(hit, substrate, ray, depth, contrib, stats);
+            (1.0 - f) * below + f * reflected
+        }
+    }
+
+    /// Cook-Torrance (Beckmann distribution, the V-cavity masking term,
+    /// exact Fresnel) plus a Lambertian term, for lights in front of both
+    /// the surface and the viewer.
+    #[allow(clippy::too_many_arguments)]
+    fn cook_torrance<S: RayStats>(
+        &self,
+        hit: &Hit,
+        v: DVec3,
+        kd: DVec3,
+        specular: DVec3,
+        roughness: f64,
+        refractive_index: f64,
+        stats: &mut S,
+    ) -> DVec3 {
+        let (x, n) = (hit.point, hit.normal);
+        let m2 = roughness * roughness;
+        self.lights(x, x + hit.shadow_offset, stats, |l, e| {
+            let nl = n.dot(l);
+            let nv = n.dot(v);
+            if nl <= 0.0 || nv <= 0.0 {
+                return DVec3::ZERO;
+            }
+            let h = (l + v).normalize();
+            let nh = n.dot(h).max(1e-12);
+            let vh = v.dot(h).max(1e-12);
+            let nh2 = nh * nh;
+            let beckmann =
+                ((nh2 - 1.0) / (m2 * nh2)).exp() / (std::f64::consts::PI * m2 * nh2 * nh2);
+            let g = 1f64.min(2.0 * nh * nv / vh).min(2.0 * nh * nl / vh);
+            let f = fresnel_exact(vh, refractive_index);
+            let spec = f * beckmann * g / (std::f64::consts::PI * nl * nv);
+            (kd + specular * spec) * e * nl
+        })
     }
 
     /// 2010 glass (spec §6.4): Schlick with the air-side cosine; the
