@@ -68,7 +68,13 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     // error with no output.
     let located = |e: CensusError| InputError(format!("{name}: {e}"));
     let census = Census::new(&scene.surfaces, scene.variant).map_err(located)?;
-    let summary = Summary::new(&scene, model.as_ref()).map_err(located)?;
+    // A model's summary counts its own surfaces (without the automatic
+    // floor); a scene's is the census above.
+    let model_census = match &model {
+        Some(m) => Some(Census::new(&m.surfaces, scene.variant).map_err(located)?),
+        None => None,
+    };
+    let summary = Summary::new(model_census.as_ref().unwrap_or(&census));
     let mut text = String::new();
     if let Some(model) = &model {
         text += &describe_model(&name, model, &summary)?;
@@ -98,13 +104,8 @@ struct Summary {
 impl Summary {
     /// Counts over the DAG (each shared definition visited once, with the
     /// number of times it is placed), never placement by placement.
-    fn new(scene: &Scene, model: Option<&Model>) -> Result<Summary, CensusError> {
-        // A model's scene is its surfaces plus the automatic floor (last).
-        let surfaces = match model {
-            Some(m) => &m.surfaces[..],
-            None => &scene.surfaces[..],
-        };
-        let census = Census::new(surfaces, scene.variant)?;
+    fn new(census: &Census) -> Summary {
+        let surfaces = census.roots();
         let mut placed_vertices = 0u128;
         census.for_each_leaf_once(&mut |leaf, uses| {
             if let Surface::Mesh(m) = leaf {
@@ -158,7 +159,7 @@ impl Summary {
                 }
             });
         }
-        Ok(summary)
+        summary
     }
 
     fn to_json(
@@ -453,7 +454,7 @@ pub fn describe(
         "image       {}x{}, {}",
         scene.width,
         scene.height,
-        plural(spp.into(), "sample per pixel", "samples per pixel")
+        plural(spp, "sample per pixel", "samples per pixel")
     )?;
     let c = &scene.camera;
     writeln!(
@@ -499,13 +500,11 @@ pub fn describe(
     )?;
     writeln!(out, "primitives  {} unique", census.unique_primitives)?;
     writeln!(out, "placements  {} of shared geometry", census.placements)?;
-    let placed = census.placed_primitives;
-    let noun = if placed == 1 {
-        "primitive"
-    } else {
-        "primitives"
-    };
-    writeln!(out, "as placed   {placed} {noun}")?;
+    writeln!(
+        out,
+        "as placed   {}",
+        plural(census.placed_primitives, "primitive", "primitives")
+    )?;
     writeln!(out, "hierarchy")?;
     let mut shown = std::collections::HashMap::new();
     for s in surfaces {

@@ -106,7 +106,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!(
             "wrote {} ({w}x{h}, {}) in {:.2} s",
             job.output.display(),
-            plural(spp.into(), "sample per pixel", "samples per pixel"),
+            plural(spp, "sample per pixel", "samples per pixel"),
             start.elapsed().as_secs_f64()
         );
     }
@@ -406,7 +406,8 @@ fn print_build_stats(args: &RenderArgs, built: &Built) {
 }
 
 /// `1 sample`, `2 samples`: the count with the word that fits it.
-pub fn plural(n: u64, one: &str, many: &str) -> String {
+pub fn plural(n: impl Into<u128>, one: &str, many: &str) -> String {
+    let n = n.into();
     format!("{n} {}", if n == 1 { one } else { many })
 }
 

@@ -187,6 +187,11 @@ impl<'s> Census<'s> {
         Ok(census)
     }
 
+    /// The top-level surfaces counted.
+    pub fn roots(&self) -> &'s [Surface] {
+        self.roots
+    }
+
     /// The location of `local` inside definition `owner` (`None`: the top).
     fn location(&self, mut owner: Option<usize>, local: &[Step]) -> Location {
         let mut parts = vec![local.to_vec()];
