@@ -442,15 +442,8 @@ impl<'s> Census<'s> {
                 }
             }
             Surface::Mesh(mesh) => {
-                let d = &mesh.data;
-                let mut used = vec![false; d.positions.len()];
-                for &i in d.triangles.iter().flatten() {
-                    if let Some(u) = used.get_mut(i as usize) {
-                        *u = true;
-                    }
-                }
-                for (p, _) in d.positions.iter().zip(&used).filter(|(_, u)| **u) {
-                    out.add(m.transform_point3(p.as_dvec3()));
+                for p in mesh.data.used_positions() {
+                    out.add(m.transform_point3(p));
                 }
             }
             _ => {}

@@ -34,17 +34,8 @@ pub fn bounds(surfaces: &[Surface]) -> Option<(DVec3, DVec3)> {
     for s in surfaces {
         s.for_each_leaf(DMat4::IDENTITY, &mut |leaf, m| {
             if let Surface::Mesh(mesh) = leaf {
-                let d = &mesh.data;
-                let mut used = vec![false; d.positions.len()];
-                for t in &d.triangles {
-                    for &i in t {
-                        if let Some(u) = used.get_mut(i as usize) {
-                            *u = true;
-                        }
-                    }
-                }
-                for (p, _) in d.positions.iter().zip(&used).filter(|(_, u)| **u) {
-                    let w = m.transform_point3(p.as_dvec3());
+                for p in mesh.data.used_positions() {
+                    let w = m.transform_point3(p);
                     if w.is_finite() {
                         lo = lo.min(w);
                         hi = hi.max(w);

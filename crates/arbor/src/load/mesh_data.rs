@@ -33,3 +33,21 @@ pub struct LoadedMesh {
     /// (always 0 for other rules and formats).
     pub skipped_polygons: usize,
 }
+
+impl MeshData {
+    /// The vertex positions that some triangle uses (an unused vertex does
+    /// not count toward a mesh's bounds), in storage order.
+    pub fn used_positions(&self) -> impl Iterator<Item = glam::DVec3> + '_ {
+        let mut used = vec![false; self.positions.len()];
+        for &i in self.triangles.iter().flatten() {
+            if let Some(u) = used.get_mut(i as usize) {
+                *u = true;
+            }
+        }
+        self.positions
+            .iter()
+            .zip(used)
+            .filter(|(_, u)| *u)
+            .map(|(p, _)| p.as_dvec3())
+    }
+}
