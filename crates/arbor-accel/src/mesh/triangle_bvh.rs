@@ -117,7 +117,7 @@ impl TriangleBvh {
     /// Builds the wide BVH over `mesh` with `params` and packs each leaf's
     /// triangles. The mesh is not needed afterwards.
     pub fn build(mesh: &TriangleMesh, params: &BvhParams) -> Self {
-        let bin = Bvh::build(mesh, BvhBuilder::BinnedSah, params);
+        let bin = Bvh::build(mesh, BvhBuilder::BinnedSah, &WideBvh::params(params));
         let leaves = bin.leaves();
         let slots = bin.prim_indices();
         // Leaf `first` -> its first packet, in the order of `leaves`; the
@@ -243,7 +243,7 @@ impl TriangleBvh {
     /// # Safety
     /// The CPU must support AVX2.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt")]
     unsafe fn packet_avx2<const N: usize, C: Counters, Q: PacketQuery>(
         &self,
         rays: &[Ray; N],
@@ -257,7 +257,7 @@ impl TriangleBvh {
     /// # Safety
     /// The CPU must support AVX-512 F.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,avx512f")]
+    #[target_feature(enable = "avx2,avx512f,bmi1,bmi2,popcnt")]
     unsafe fn packet_avx512<const N: usize, C: Counters, Q: PacketQuery>(
         &self,
         rays: &[Ray; N],

@@ -12,6 +12,7 @@
 
 use glam::{Vec3, Vec3A, Vec4};
 
+use super::stack::{LaneStack, OrderedStack};
 use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
 use crate::ray::Ray;
 
@@ -24,14 +25,66 @@ pub(crate) const EMPTY: u32 = u32::MAX;
 /// Eight children: their boxes in lanes, then what each child is.
 /// `bounds` holds six rows of eight lanes: the boxes' `min x, min y, min z,
 /// max x, max y, max z` (rows [`MIN`]` + a` and [`MAX`]` + a` for axis `a`).
-/// `child[i]` is a node index (`count[i] == 0`), the first primitive slot of
-/// a leaf (`count[i] > 0` primitives), or [`EMPTY`].
+/// `child[i]` is a node index (leaf count 0), the first primitive slot of
+/// a leaf, or [`EMPTY`].
+///
+/// `meta[i]` packs two things. Its low [`COUNT_BITS`] bits are slot `i`'s
+/// leaf count ([`Node8::count`]). The twelve bits above hold the node's
+/// child order ([`Node8::set_orders`]): for each of the four ray octants
+/// whose x direction is positive, the slot at position `i` of that
+/// octant's visiting order, three bits each. An octant with negative x
+/// walks the opposite octant's order backwards (farther for one direction
+/// is nearer for the opposite one), so eight orders fit in the 256 bytes
+/// the node already had.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub(crate) struct Node8 {
     pub bounds: [[f32; WIDTH]; 6],
     pub child: [u32; WIDTH],
-    pub count: [u32; WIDTH],
+    pub meta: [u32; WIDTH],
+}
+
+/// Bits of [`Node8::meta`] holding a slot's leaf count.
+pub(crate) const COUNT_BITS: u32 = 20;
+
+/// The mask of the count bits of [`Node8::meta`].
+pub(crate) const COUNT_MASK: u32 = (1 << COUNT_BITS) - 1;
+
+/// The most primitives a leaf of the wide tree may hold: its count must fit
+/// in [`COUNT_BITS`]. The builders' leaves are far smaller (at most
+/// `BvhParams::max_leaf_size`, clamped to this by the wide builds).
+pub(crate) const MAX_LEAF_COUNT: usize = COUNT_MASK as usize;
+
+/// Which order of [`Node8::meta`] a ray walks: the bit offset of its
+/// octant's three-bit slot numbers, and whether it reads them backwards
+/// (octants with a negative x direction).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Order {
+    pub shift: u32,
+    /// 7 to read the positions backwards (position `p` is stored at
+    /// `p ^ flip`), 0 otherwise.
+    pub flip: u32,
+}
+
+impl Order {
+    /// The order of a ray whose inverse direction has the sign bits
+    /// `negative` (bit `a` set: axis `a` negative).
+    #[inline(always)]
+    pub(crate) fn for_signs(negative: u32) -> Order {
+        // Negative x: the opposite octant's order, backwards.
+        let reversed = negative & 1 != 0;
+        let octant = if reversed { !negative & 7 } else { negative };
+        Order {
+            shift: COUNT_BITS + 3 * (octant >> 1),
+            flip: if reversed { 7 } else { 0 },
+        }
+    }
+
+    /// The order of a ray with inverse direction `inv`.
+    #[inline(always)]
+    pub(crate) fn of(inv: Vec3) -> Order {
+        Order::for_signs(inv.is_negative_bitmask())
+    }
 }
 
 /// Row of `Node8::bounds` holding the boxes' lower corners along x.
@@ -57,8 +110,59 @@ impl Node8 {
             [f32::NEG_INFINITY; WIDTH],
         ],
         child: [EMPTY; WIDTH],
-        count: [0; WIDTH],
+        meta: [0; WIDTH],
     };
+
+    /// Slot `i`'s leaf count (0 for a node or an empty slot).
+    #[inline(always)]
+    pub(crate) fn count(&self, i: usize) -> u32 {
+        self.meta[i] & COUNT_MASK
+    }
+
+    /// Sets slot `i`'s leaf count, which must not exceed [`MAX_LEAF_COUNT`].
+    pub(crate) fn set_count(&mut self, i: usize, count: u32) {
+        assert!(
+            count as usize <= MAX_LEAF_COUNT,
+            "leaf of {count} primitives"
+        );
+        self.meta[i] = (self.meta[i] & !COUNT_MASK) | count;
+    }
+
+    /// The slot at position `position` of `order`.
+    #[inline(always)]
+    pub(crate) fn slot_at(&self, order: Order, position: usize) -> usize {
+        (self.meta[position ^ order.flip as usize] >> order.shift & 7) as usize
+    }
+
+    /// Writes the visiting orders of the four octants with positive x into
+    /// `meta` (the counts stay): for the octant's direction `d` (each
+    /// component +1 or -1), the slots by decreasing `d . centre` of their
+    /// boxes, farthest first, so that pushing them in this order leaves the
+    /// nearest on top of the stack. Empty slots come last. The order only
+    /// steers which child is visited first; the answers do not depend on it.
+    pub(crate) fn set_orders(&mut self) {
+        let valid = self.valid();
+        for octant in 0..4u32 {
+            // Octant with x positive: bits 1 and 2 of the full octant index.
+            let negative = octant << 1;
+            let d = [0, 1, 2].map(|a| if negative >> a & 1 == 1 { -1.0 } else { 1.0 });
+            let key: [f32; WIDTH] = std::array::from_fn(|slot| {
+                if valid >> slot & 1 == 0 {
+                    return f32::NEG_INFINITY;
+                }
+                (0..3)
+                    .map(|a| d[a] * (self.bounds[MIN + a][slot] + self.bounds[MAX + a][slot]))
+                    .sum()
+            });
+            let mut slots: [usize; WIDTH] = std::array::from_fn(|i| i);
+            slots.sort_by(|&a, &b| key[b].total_cmp(&key[a]));
+            let shift = COUNT_BITS + 3 * octant;
+            for (position, &slot) in slots.iter().enumerate() {
+                self.meta[position] =
+                    (self.meta[position] & !(7 << shift)) | (slot as u32) << shift;
+            }
+        }
+    }
 
     /// Bit `i` set when slot `i` holds a child.
     #[inline(always)]
@@ -95,6 +199,26 @@ pub(crate) trait BoxLanes {
     /// `tmin >= 0` an exit below zero rejects the box however it is
     /// widened.
     fn hit<const NAN_SAFE: bool>(&self, n: &Node8, tmax: f32) -> ([f32; WIDTH], u32);
+
+    /// Pushes the children of `n` set in `entered` onto `stack` in `order`
+    /// ([`OrderedStack::push_portable`], or its AVX2 form).
+    #[inline(always)]
+    fn push_ordered(
+        stack: &mut OrderedStack,
+        n: &Node8,
+        near: &[f32; WIDTH],
+        entered: u32,
+        order: Order,
+    ) {
+        stack.push_portable(n, near, entered, order);
+    }
+
+    /// Pushes the children of `n` set in `entered` onto `stack` in slot
+    /// order ([`LaneStack::push_portable`], or its AVX2 form).
+    #[inline(always)]
+    fn push_lanes(stack: &mut LaneStack, n: &Node8, entered: u32) {
+        stack.push_portable(n, entered);
+    }
 }
 
 /// Whether a ray with inverse direction `inv` needs the slow path of
@@ -241,15 +365,17 @@ pub(crate) fn without_avx2<R>(f: impl FnOnce() -> R) -> R {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
+    use std::sync::atomic::{AtomicU8, Ordering};
 
     use glam::Vec3;
 
-    use super::{near_far_rows, BoxLanes, Node8, EMPTY, MAX, MIN, WIDTH};
+    use super::{near_far_rows, BoxLanes, Node8, Order, EMPTY, MAX, MIN, WIDTH};
     use crate::aabb::{SLAB_TFAR_SCALE, SLAB_TFAR_SCALE_NEGATIVE};
     use crate::ray::Ray;
+    use crate::wide::stack::{LaneStack, OrderedStack};
 
-    /// Whether this CPU runs the AVX2 path (checked once, then cached by
-    /// the standard library). In this crate's unit tests,
+    /// Whether this CPU runs the AVX2 path: AVX2 with BMI1, BMI2 and
+    /// POPCNT (checked once, then cached by the standard library). In this crate's unit tests,
     /// `without_avx2` can say no on the current thread, so that
     /// the portable paths run on an AVX2 machine too.
     #[inline(always)]
@@ -258,7 +384,33 @@ mod avx2 {
         if super::AVX2_HIDDEN.get() {
             return false;
         }
-        std::arch::is_x86_feature_detected!("avx2")
+        // Asked once per leaf too: one cached byte instead of four feature
+        // lookups (those cost 85 instructions a shadow ray on buddha100k).
+        match AVX2.load(Ordering::Relaxed) {
+            YES => true,
+            NO => false,
+            _ => detect_avx2(),
+        }
+    }
+
+    /// [`has_avx2`]'s cached answer: [`UNKNOWN`], [`NO`] or [`YES`].
+    static AVX2: AtomicU8 = AtomicU8::new(UNKNOWN);
+    const UNKNOWN: u8 = 0;
+    const NO: u8 = 1;
+    const YES: u8 = 2;
+
+    /// Asks the CPU, and caches the answer in [`AVX2`].
+    #[cold]
+    fn detect_avx2() -> bool {
+        // The bit-manipulation extensions come with AVX2 on every CPU that
+        // has it (Intel Haswell, AMD Excavator and later); the AVX2 entry
+        // points are compiled with them, so they are checked too.
+        let yes = std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("bmi1")
+            && std::arch::is_x86_feature_detected!("bmi2")
+            && std::arch::is_x86_feature_detected!("popcnt");
+        AVX2.store(if yes { YES } else { NO }, Ordering::Relaxed);
+        yes
     }
 
     /// Whether this CPU runs the AVX-512 paths (AVX-512 F, with AVX2 for
@@ -392,6 +544,24 @@ mod avx2 {
                 _mm256_storeu_ps(t.as_mut_ptr(), near);
                 (t, inside)
             }
+        }
+
+        #[inline(always)]
+        fn push_ordered(
+            stack: &mut OrderedStack,
+            n: &Node8,
+            near: &[f32; WIDTH],
+            entered: u32,
+            order: Order,
+        ) {
+            // SAFETY: AVX2 is available (see the type's documentation).
+            unsafe { stack.push_avx2(n, near, entered, order) }
+        }
+
+        #[inline(always)]
+        fn push_lanes(stack: &mut LaneStack, n: &Node8, entered: u32) {
+            // SAFETY: AVX2 is available (see the type's documentation).
+            unsafe { stack.push_avx2(n, entered) }
         }
     }
 }

@@ -17,9 +17,10 @@
 //!   registers (`lanes.rs`: chosen at run time when the CPU has AVX2, with
 //!   the same arithmetic on two 4-lane `glam::Vec4` halves otherwise).
 //! * **Ordered traversal with a short stack**: the children a ray enters are
-//!   pushed farthest first with their entry distance, so the nearest is
-//!   visited next and a popped entry beyond the current closest hit is
-//!   dropped without touching its node.
+//!   pushed with their entry distance in the node's precomputed order for
+//!   the ray's octant, farthest first, without sorting (`stack.rs`), so the
+//!   nearest is visited next and a popped entry beyond the current closest
+//!   hit is dropped without touching its node.
 //! * **Early-out occlusion**: shadow rays skip the ordering and stop at the
 //!   first blocker.
 //! * **The root's box first**: a ray from outside that misses the whole
@@ -36,8 +37,7 @@
 
 pub(crate) mod lanes;
 pub(crate) mod packet;
-
-use std::mem::MaybeUninit;
+pub(crate) mod stack;
 
 use glam::Vec3A;
 use rayon::prelude::*;
@@ -52,12 +52,13 @@ use crate::primitives::{PrimitiveId, Primitives};
 use crate::ray::Ray;
 use crate::util::{offer_any, offer_closest, prefetch_ptr, widen_up};
 use glam::Vec3;
-use lanes::{needs_slow_path, BoxLanes, Node8, Portable, MAX, MIN, WIDTH};
+use lanes::{needs_slow_path, BoxLanes, Node8, Order, Portable, MAX, MIN, WIDTH};
+use stack::{LaneStack, OrderedStack};
 
 /// Stack entries: each visited node pushes at most seven siblings beyond
 /// the one it continues with, one node per level of a tree whose depth is
 /// bounded by the binary tree's.
-const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
+pub(super) const WIDE_STACK: usize = (WIDTH - 1) * STACK_SIZE;
 
 /// An 8-wide BVH over any [`Primitives`], built by collapsing the binned-SAH
 /// binary [`Bvh`].
@@ -79,10 +80,20 @@ pub struct WideBvh {
 impl WideBvh {
     /// Builds the binned-SAH binary tree with `params` and collapses it.
     pub fn build<P: Primitives + ?Sized>(prims: &P, params: &BvhParams) -> Self {
-        let mut bin = Bvh::build(prims, BvhBuilder::BinnedSah, params);
+        let mut bin = Bvh::build(prims, BvhBuilder::BinnedSah, &WideBvh::params(params));
         let mut wide = WideBvh::collapse(&bin);
         wide.prims = std::mem::take(&mut bin.prims);
         wide
+    }
+
+    /// `params` with leaves no larger than a wide node can count
+    /// ([`lanes::MAX_LEAF_COUNT`]), for the binary tree to collapse.
+    pub(crate) fn params(params: &BvhParams) -> BvhParams {
+        BvhParams {
+            leaf_size: params.leaf_size.min(lanes::MAX_LEAF_COUNT),
+            max_leaf_size: params.max_leaf_size.min(lanes::MAX_LEAF_COUNT),
+            ..*params
+        }
     }
 
     /// The wide tree of the binary tree `bin`, whose leaves it keeps, but
@@ -148,7 +159,7 @@ impl WideBvh {
                 }
                 if n.is_leaf() {
                     node.child[lane] = n.offset;
-                    node.count[lane] = n.count;
+                    node.set_count(lane, n.count);
                     wide.max_depth = wide.max_depth.max(depth + 1);
                 } else {
                     let index = wide.nodes.len();
@@ -157,6 +168,7 @@ impl WideBvh {
                     todo.push((k, index, depth + 1));
                 }
             }
+            node.set_orders();
             wide.nodes[w] = node;
         }
         wide
@@ -174,7 +186,7 @@ impl WideBvh {
         let mut leaf_slots: Vec<u32> = self
             .nodes
             .iter()
-            .flat_map(|n| (0..WIDTH).filter(|&i| n.count[i] > 0).map(|i| n.child[i]))
+            .flat_map(|n| (0..WIDTH).filter(|&i| n.count(i) > 0).map(|i| n.child[i]))
             .collect();
         leaf_slots.sort_unstable();
         let mut nodes = vec![LayoutNode::default(); self.nodes.len() + leaf_slots.len()];
@@ -196,9 +208,9 @@ impl WideBvh {
                     Vec3::from_array(std::array::from_fn(|a| n.bounds[MIN + a][lane])),
                     Vec3::from_array(std::array::from_fn(|a| n.bounds[MAX + a][lane])),
                 );
-                let k = if n.count[lane] > 0 {
+                let k = if n.count(lane) > 0 {
                     let k = base + leaf_slots.partition_point(|&s| s < n.child[lane]) as u32;
-                    nodes[k as usize].primitives = n.count[lane];
+                    nodes[k as usize].primitives = n.count(lane);
                     nodes[k as usize].depth = depth + 1;
                     k
                 } else {
@@ -259,8 +271,8 @@ impl Accelerator for WideBvh {
             leaves: self
                 .nodes
                 .iter()
-                .flat_map(|n| n.count.iter())
-                .filter(|&&c| c > 0)
+                .flat_map(|n| (0..WIDTH).map(move |i| n.count(i)))
+                .filter(|&c| c > 0)
                 .count(),
             max_depth: self.max_depth,
             memory_bytes: std::mem::size_of::<Self>()
@@ -289,7 +301,7 @@ impl WideBvh {
         debug_assert!(self.prims.is_empty(), "the slots would no longer match");
         self.nodes.par_iter_mut().for_each(|n| {
             for i in 0..WIDTH {
-                if n.count[i] > 0 {
+                if n.count(i) > 0 {
                     n.child[i] = f(n.child[i]);
                 }
             }
@@ -387,9 +399,9 @@ impl WideBvh {
     /// the caller's leaf test included, so that the lane test inlines.
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The CPU must support AVX2 ([`lanes::has_avx2`]).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt")]
     unsafe fn closest_avx2<C, L, P>(&self, ray: Ray, counters: &mut C, leaf: L, prefetch_leaf: P)
     where
         C: Counters,
@@ -403,9 +415,9 @@ impl WideBvh {
     /// [`WideBvh::occluded_leaves`] compiled for AVX2.
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The CPU must support AVX2 ([`lanes::has_avx2`]).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
+    #[target_feature(enable = "avx2,bmi1,bmi2,popcnt")]
     unsafe fn occluded_avx2<C, L, P>(
         &self,
         ray: &Ray,
@@ -475,7 +487,7 @@ impl WideBvh {
             while missed != 0 {
                 let lane = missed.trailing_zeros() as usize;
                 missed &= missed - 1;
-                skip_node(counters, self.slot_number(n.child[lane], n.count[lane]));
+                skip_node(counters, self.slot_number(n.child[lane], n.count(lane)));
             }
         }
     }
@@ -489,17 +501,6 @@ impl WideBvh {
         // changes node references afterwards (`into_leaf_storage` rewrites
         // leaf references only).
         unsafe { self.nodes.get_unchecked(i as usize) }
-    }
-
-    /// Starts loading child `lane` of `n`: its node, or through
-    /// `prefetch_leaf` its first primitives.
-    #[inline(always)]
-    fn prefetch_child(&self, n: &Node8, lane: usize, prefetch_leaf: &impl Fn(usize)) {
-        if n.count[lane] == 0 {
-            prefetch_ptr(self.nodes.as_ptr().wrapping_add(n.child[lane] as usize));
-        } else {
-            prefetch_leaf(n.child[lane] as usize);
-        }
     }
 
     /// The closest-hit traversal with the box lanes `B`, on the fast path
@@ -565,8 +566,8 @@ impl WideBvh {
         P: Fn(usize),
     {
         let lanes = B::new(&ray, inv);
-        // (child, count, entry distance), as in the node's slots.
-        let mut stack = Stack::<(u32, u32, f32)>::new();
+        let order = Order::of(inv);
+        let mut stack = OrderedStack::new();
         let (mut child, mut count) = (0u32, 0u32);
         // The culling distance, recomputed only when a leaf may have
         // shrunk `tmax`.
@@ -584,36 +585,18 @@ impl WideBvh {
                     // One child entered (the common case deep in the tree):
                     // go there without touching the stack.
                     let lane = bits.trailing_zeros() as usize;
-                    (child, count) = (n.child[lane], n.count[lane]);
-                    continue;
-                }
-                let rest = bits & bits.wrapping_sub(1);
-                if rest.is_power_of_two() {
-                    // Two children entered: go to the nearer and push the
-                    // other, without sorting or popping. On a tie the later
-                    // lane goes first, as the sorted pushes below order it.
-                    let (a, b) = (
-                        bits.trailing_zeros() as usize,
-                        rest.trailing_zeros() as usize,
-                    );
-                    let (near, far) = if tnear[b] <= tnear[a] { (b, a) } else { (a, b) };
-                    self.prefetch_child(n, far, &prefetch_leaf);
-                    stack.push((n.child[far], n.count[far], tnear[far]));
-                    (child, count) = (n.child[near], n.count[near]);
+                    (child, count) = (n.child[lane], n.count(lane));
                     continue;
                 }
                 if bits != 0 {
-                    // Push the entered children farthest first, so the
-                    // nearest ends on top: insertion sort of at most eight
-                    // entries on the stack itself.
-                    let base = stack.len();
-                    let mut b = bits;
-                    while b != 0 {
-                        let lane = b.trailing_zeros() as usize;
-                        b &= b - 1;
-                        self.prefetch_child(n, lane, &prefetch_leaf);
-                        stack.insert_sorted(base, (n.child[lane], n.count[lane], tnear[lane]));
-                    }
+                    // Several: pushed in the node's order for this octant,
+                    // farthest first, and the nearest (on top) visited now.
+                    // It was entered just now, so it needs no distance check.
+                    B::push_ordered(&mut stack, n, &tnear, bits, order);
+                    // SAFETY: `bits` named at least two children, all pushed.
+                    (child, count) = unsafe { stack.pop_pushed() };
+                    self.prefetch_next(stack.peek(), &prefetch_leaf);
+                    continue;
                 }
             }
             // The nearest pending child not beyond the closest hit.
@@ -648,7 +631,7 @@ impl WideBvh {
     {
         let lanes = B::new(ray, inv);
         let wide = widen_up(ray.tmax);
-        let mut stack = Stack::<(u32, u32)>::new();
+        let mut stack = LaneStack::new();
         let (mut child, mut count) = (0u32, 0u32);
         loop {
             count_node(counters, self.slot_number(child, count));
@@ -658,20 +641,21 @@ impl WideBvh {
                 }
             } else {
                 let n = self.node(child);
-                let (_, mut bits) = lanes.hit::<NAN_SAFE>(n, wide);
+                let (_, bits) = lanes.hit::<NAN_SAFE>(n, wide);
                 self.skip_missed(counters, n, bits);
                 if bits.is_power_of_two() {
                     // One child entered: go there without the stack.
                     let lane = bits.trailing_zeros() as usize;
-                    (child, count) = (n.child[lane], n.count[lane]);
+                    (child, count) = (n.child[lane], n.count(lane));
                     continue;
                 }
-                // Any order will do: the first blocker ends the query.
-                while bits != 0 {
-                    let lane = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    self.prefetch_child(n, lane, &prefetch_leaf);
-                    stack.push((n.child[lane], n.count[lane]));
+                if bits != 0 {
+                    // Any order will do: the first blocker ends the query.
+                    B::push_lanes(&mut stack, n, bits);
+                    // SAFETY: `bits` named at least two children, all pushed.
+                    (child, count) = unsafe { stack.pop_pushed() };
+                    self.prefetch_next(stack.peek(), &prefetch_leaf);
+                    continue;
                 }
             }
             let Some(next) = stack.pop() else {
@@ -680,83 +664,22 @@ impl WideBvh {
             (child, count) = next;
         }
     }
-}
 
-/// The traversal stack: a fixed array left uninitialised, since zeroing it
-/// per ray cost more than the box tests
-/// (docs/perf-log/2026-11-23-first-round.md).
-struct Stack<T: Copy> {
-    items: [MaybeUninit<T>; WIDE_STACK],
-    len: usize,
-}
-
-impl<T: Copy + Entry> Stack<T> {
+    /// Starts loading `next`, the child on top of the stack (the one
+    /// visited after the current subtree, unless a hit culls it): its node,
+    /// or through `prefetch_leaf` its first primitives. One prefetch per
+    /// node with several entered children: prefetching every pushed child
+    /// cost about 100 instructions a ray (buddha100k diffuse) for no
+    /// measurable time.
     #[inline(always)]
-    fn new() -> Self {
-        Stack {
-            items: [const { MaybeUninit::uninit() }; WIDE_STACK],
-            len: 0,
-        }
-    }
-
-    #[inline(always)]
-    fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Pushes `e`; panics (bounds check) beyond the capacity, which the
-    /// depth bound of the builders rules out.
-    #[inline(always)]
-    fn push(&mut self, e: T) {
-        self.items[self.len] = MaybeUninit::new(e);
-        self.len += 1;
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<T> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        // SAFETY: every slot below `len` was written by `push` or
-        // `insert_sorted`, and `T: Copy`.
-        Some(unsafe { self.items[self.len].assume_init() })
-    }
-
-    /// Pushes `e` so that the entries from `base` up stay sorted by
-    /// decreasing entry distance (the nearest on top).
-    #[inline(always)]
-    fn insert_sorted(&mut self, base: usize, e: T) {
-        let mut j = self.len;
-        while j > base {
-            // SAFETY: `base <= j - 1 < len`, a written slot.
-            let prev = unsafe { self.items[j - 1].assume_init() };
-            if prev.dist() >= e.dist() {
-                break;
+    fn prefetch_next(&self, next: Option<(u32, u32)>, prefetch_leaf: &impl Fn(usize)) {
+        if let Some((child, count)) = next {
+            if count == 0 {
+                prefetch_ptr(self.nodes.as_ptr().wrapping_add(child as usize));
+            } else {
+                prefetch_leaf(child as usize);
             }
-            self.items[j] = MaybeUninit::new(prev);
-            j -= 1;
         }
-        self.items[j] = MaybeUninit::new(e);
-        self.len += 1;
-    }
-}
-
-/// A stack entry's entry distance, for sorting.
-trait Entry {
-    fn dist(&self) -> f32;
-}
-
-impl Entry for (u32, u32, f32) {
-    #[inline(always)]
-    fn dist(&self) -> f32 {
-        self.2
-    }
-}
-
-impl Entry for (u32, u32) {
-    fn dist(&self) -> f32 {
-        0.0
     }
 }
 

@@ -258,7 +258,7 @@ impl WideBvh {
                     }
                     hits[j] = MaybeUninit::new(Pending {
                         child: n.child[slot],
-                        count: n.count[slot],
+                        count: n.count(slot),
                         rays: mask,
                         dist,
                     });
