@@ -47,57 +47,51 @@ const COMPRESS: [u32; 256] = {
     table
 };
 
-/// The closest-hit walk's stack: per entry a child reference, its meta
-/// word (the leaf count in [`COUNT_MASK`]) and its entry distance, in
-/// three arrays so that a node's children go on with vector stores.
-pub(crate) struct OrderedStack {
+/// The lane compaction of `mask` (at most eight bits): lane `k` holds the
+/// position of its `k`-th set bit, from [`COMPRESS`].
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn compaction(mask: usize) -> std::arch::x86_64::__m256i {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX2 is available (the caller's contract).
+    unsafe {
+        let packed = _mm256_set1_epi32(COMPRESS[mask & 0xff] as i32);
+        _mm256_and_si256(
+            _mm256_srlv_epi32(packed, _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21)),
+            _mm256_set1_epi32(7),
+        )
+    }
+}
+
+/// The any-hit walk's stack, and the core of [`OrderedStack`]: per entry a
+/// child reference and its meta word (the leaf count in [`COUNT_MASK`]).
+pub(crate) struct LaneStack {
     child: [MaybeUninit<u32>; SLOTS],
     meta: [MaybeUninit<u32>; SLOTS],
-    dist: [MaybeUninit<f32>; SLOTS],
     len: usize,
 }
 
-impl OrderedStack {
+impl LaneStack {
     /// An empty stack.
     #[inline(always)]
     pub(crate) fn new() -> Self {
-        OrderedStack {
+        LaneStack {
             child: [const { MaybeUninit::uninit() }; SLOTS],
             meta: [const { MaybeUninit::uninit() }; SLOTS],
-            dist: [const { MaybeUninit::uninit() }; SLOTS],
             len: 0,
         }
     }
 
-    /// The top entry as `(child, leaf count, entry distance)`, removed;
-    /// `None` when empty.
-    #[inline(always)]
-    pub(crate) fn pop(&mut self) -> Option<(u32, u32, f32)> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        let i = self.len;
-        // SAFETY: every slot below `len` was written by a push.
-        unsafe {
-            Some((
-                self.child.get_unchecked(i).assume_init(),
-                self.meta.get_unchecked(i).assume_init() & COUNT_MASK,
-                self.dist.get_unchecked(i).assume_init(),
-            ))
-        }
-    }
-
-    /// [`OrderedStack::pop`] right after a push of at least one entry.
+    /// Entry `i` as `(child, leaf count)`.
     ///
     /// # Safety
-    /// The stack must not be empty.
+    /// `i < len`: a slot written by a push.
     #[inline(always)]
-    pub(crate) unsafe fn pop_pushed(&mut self) -> (u32, u32) {
-        debug_assert!(self.len > 0);
-        self.len -= 1;
-        let i = self.len;
-        // SAFETY: the caller pushed the entry at `len - 1`.
+    unsafe fn entry(&self, i: usize) -> (u32, u32) {
+        // SAFETY: the caller's contract.
         unsafe {
             (
                 self.child.get_unchecked(i).assume_init(),
@@ -106,17 +100,138 @@ impl OrderedStack {
         }
     }
 
+    /// The top entry as `(child, leaf count)`, removed; `None` when empty.
+    #[inline(always)]
+    pub(crate) fn pop(&mut self) -> Option<(u32, u32)> {
+        self.len = self.len.checked_sub(1)?;
+        // SAFETY: the slot at the old `len - 1` was written by a push.
+        Some(unsafe { self.entry(self.len) })
+    }
+
+    /// [`LaneStack::pop`] right after a push of at least one entry.
+    ///
+    /// # Safety
+    /// The stack must not be empty.
+    #[inline(always)]
+    pub(crate) unsafe fn pop_pushed(&mut self) -> (u32, u32) {
+        debug_assert!(self.len > 0);
+        self.len -= 1;
+        // SAFETY: the caller pushed the entry at the old `len - 1`.
+        unsafe { self.entry(self.len) }
+    }
+
     /// The top entry's `(child, leaf count)`, left in place.
     #[inline(always)]
     pub(crate) fn peek(&self) -> Option<(u32, u32)> {
         let i = self.len.checked_sub(1)?;
         // SAFETY: every slot below `len` was written by a push.
-        unsafe {
-            Some((
-                self.child.get_unchecked(i).assume_init(),
-                self.meta.get_unchecked(i).assume_init() & COUNT_MASK,
-            ))
+        Some(unsafe { self.entry(i) })
+    }
+
+    /// Pushes slot `slot` of `n`.
+    #[inline(always)]
+    fn push_slot(&mut self, n: &Node8, slot: usize) {
+        assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
+        self.child[self.len] = MaybeUninit::new(n.child[slot]);
+        self.meta[self.len] = MaybeUninit::new(n.meta[slot]);
+        self.len += 1;
+    }
+
+    /// Pushes the slots of `n` set in `entered` in slot order (the last
+    /// slot on top); the portable form.
+    #[inline(always)]
+    pub(crate) fn push_portable(&mut self, n: &Node8, entered: u32) {
+        let mut bits = entered;
+        while bits != 0 {
+            let slot = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            self.push_slot(n, slot);
         }
+    }
+
+    /// Writes the children and meta words of the slots `lanes` of `n`
+    /// (lane `k` naming the `k`-th slot to push) from `len` on and grows
+    /// the stack by `count`.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and `len < WIDE_STACK`.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn store_permuted(&mut self, n: &Node8, lanes: std::arch::x86_64::__m256i, count: u32) {
+        use std::arch::x86_64::*;
+        // SAFETY: AVX2 is available; the loads read whole 32-byte rows of
+        // `n`; the stores write eight slots from `len`, inside the arrays
+        // since `len < WIDE_STACK` and `SLOTS = WIDE_STACK + 8`.
+        unsafe {
+            let at = self.len;
+            _mm256_storeu_si256(
+                self.child.as_mut_ptr().add(at).cast(),
+                _mm256_permutevar8x32_epi32(_mm256_loadu_si256(n.child.as_ptr().cast()), lanes),
+            );
+            _mm256_storeu_si256(
+                self.meta.as_mut_ptr().add(at).cast(),
+                _mm256_permutevar8x32_epi32(_mm256_loadu_si256(n.meta.as_ptr().cast()), lanes),
+            );
+            self.len = at + count as usize;
+        }
+    }
+
+    /// [`LaneStack::push_portable`] in AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn push_avx2(&mut self, n: &Node8, entered: u32) {
+        assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
+        // SAFETY: AVX2 is available and `len < WIDE_STACK`.
+        unsafe { self.store_permuted(n, compaction(entered as usize), entered.count_ones()) }
+    }
+}
+
+/// The closest-hit walk's stack: a [`LaneStack`] with each entry's entry
+/// distance beside it, in a third array so that a node's children go on
+/// with vector stores.
+pub(crate) struct OrderedStack {
+    refs: LaneStack,
+    dist: [MaybeUninit<f32>; SLOTS],
+}
+
+impl OrderedStack {
+    /// An empty stack.
+    #[inline(always)]
+    pub(crate) fn new() -> Self {
+        OrderedStack {
+            refs: LaneStack::new(),
+            dist: [const { MaybeUninit::uninit() }; SLOTS],
+        }
+    }
+
+    /// The top entry as `(child, leaf count, entry distance)`, removed;
+    /// `None` when empty.
+    #[inline(always)]
+    pub(crate) fn pop(&mut self) -> Option<(u32, u32, f32)> {
+        let (child, count) = self.refs.pop()?;
+        // SAFETY: every push writes the distance beside the entry.
+        let dist = unsafe { self.dist.get_unchecked(self.refs.len).assume_init() };
+        Some((child, count, dist))
+    }
+
+    /// [`OrderedStack::pop`] right after a push of at least one entry,
+    /// without the distance.
+    ///
+    /// # Safety
+    /// The stack must not be empty.
+    #[inline(always)]
+    pub(crate) unsafe fn pop_pushed(&mut self) -> (u32, u32) {
+        // SAFETY: the caller's contract.
+        unsafe { self.refs.pop_pushed() }
+    }
+
+    /// The top entry's `(child, leaf count)`, left in place.
+    #[inline(always)]
+    pub(crate) fn peek(&self) -> Option<(u32, u32)> {
+        self.refs.peek()
     }
 
     /// Pushes the slots of `n` set in `entered` in the node's `order`,
@@ -132,11 +247,9 @@ impl OrderedStack {
         for position in 0..WIDTH {
             let slot = n.slot_at(order, position);
             if entered >> slot & 1 == 1 {
-                assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
-                self.child[self.len] = MaybeUninit::new(n.child[slot]);
-                self.meta[self.len] = MaybeUninit::new(n.meta[slot]);
-                self.dist[self.len] = MaybeUninit::new(near[slot]);
-                self.len += 1;
+                assert!(self.refs.len < WIDE_STACK, "wide traversal stack overflow");
+                self.dist[self.refs.len] = MaybeUninit::new(near[slot]);
+                self.refs.push_slot(n, slot);
             }
         }
     }
@@ -156,7 +269,7 @@ impl OrderedStack {
         order: Order,
     ) {
         use std::arch::x86_64::*;
-        assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
+        assert!(self.refs.len < WIDE_STACK, "wide traversal stack overflow");
         // SAFETY: AVX2 is available; the loads read whole 32-byte rows of
         // `n` and `near`; the stores write eight slots from `len`, inside
         // the arrays since `len < WIDE_STACK` and `SLOTS = WIDE_STACK + 8`.
@@ -182,139 +295,12 @@ impl OrderedStack {
                 bit,
             );
             let positions = _mm256_movemask_ps(_mm256_castsi256_ps(hit)) as usize;
-            let packed = _mm256_set1_epi32(COMPRESS[positions & 0xff] as i32);
-            let pick = _mm256_and_si256(
-                _mm256_srlv_epi32(packed, _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21)),
-                _mm256_set1_epi32(7),
-            );
-            let lanes = _mm256_permutevar8x32_epi32(slots, pick);
-            let child = _mm256_loadu_si256(n.child.as_ptr().cast());
-            let dist = _mm256_loadu_ps(near.as_ptr());
-            let at = self.len;
-            _mm256_storeu_si256(
-                self.child.as_mut_ptr().add(at).cast(),
-                _mm256_permutevar8x32_epi32(child, lanes),
-            );
-            _mm256_storeu_si256(
-                self.meta.as_mut_ptr().add(at).cast(),
-                _mm256_permutevar8x32_epi32(meta, lanes),
-            );
+            let lanes = _mm256_permutevar8x32_epi32(slots, compaction(positions));
             _mm256_storeu_ps(
-                self.dist.as_mut_ptr().add(at).cast(),
-                _mm256_permutevar8x32_ps(dist, lanes),
+                self.dist.as_mut_ptr().add(self.refs.len).cast(),
+                _mm256_permutevar8x32_ps(_mm256_loadu_ps(near.as_ptr()), lanes),
             );
-            self.len = at + entered.count_ones() as usize;
-        }
-    }
-}
-
-/// The any-hit walk's stack: per entry a child reference and its meta word.
-pub(crate) struct LaneStack {
-    child: [MaybeUninit<u32>; SLOTS],
-    meta: [MaybeUninit<u32>; SLOTS],
-    len: usize,
-}
-
-impl LaneStack {
-    /// An empty stack.
-    #[inline(always)]
-    pub(crate) fn new() -> Self {
-        LaneStack {
-            child: [const { MaybeUninit::uninit() }; SLOTS],
-            meta: [const { MaybeUninit::uninit() }; SLOTS],
-            len: 0,
-        }
-    }
-
-    /// The top entry as `(child, leaf count)`, removed; `None` when empty.
-    #[inline(always)]
-    pub(crate) fn pop(&mut self) -> Option<(u32, u32)> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        let i = self.len;
-        // SAFETY: every slot below `len` was written by a push.
-        unsafe {
-            Some((
-                self.child.get_unchecked(i).assume_init(),
-                self.meta.get_unchecked(i).assume_init() & COUNT_MASK,
-            ))
-        }
-    }
-
-    /// [`LaneStack::pop`] right after a push of at least one entry.
-    ///
-    /// # Safety
-    /// The stack must not be empty.
-    #[inline(always)]
-    pub(crate) unsafe fn pop_pushed(&mut self) -> (u32, u32) {
-        debug_assert!(self.len > 0);
-        self.len -= 1;
-        let i = self.len;
-        // SAFETY: the caller pushed the entry at `len - 1`.
-        unsafe {
-            (
-                self.child.get_unchecked(i).assume_init(),
-                self.meta.get_unchecked(i).assume_init() & COUNT_MASK,
-            )
-        }
-    }
-
-    /// The top entry's `(child, leaf count)`, left in place.
-    #[inline(always)]
-    pub(crate) fn peek(&self) -> Option<(u32, u32)> {
-        let i = self.len.checked_sub(1)?;
-        // SAFETY: every slot below `len` was written by a push.
-        unsafe {
-            Some((
-                self.child.get_unchecked(i).assume_init(),
-                self.meta.get_unchecked(i).assume_init() & COUNT_MASK,
-            ))
-        }
-    }
-
-    /// Pushes the slots of `n` set in `entered` in slot order (the last
-    /// slot on top); the portable form.
-    #[inline(always)]
-    pub(crate) fn push_portable(&mut self, n: &Node8, entered: u32) {
-        let mut bits = entered;
-        while bits != 0 {
-            let slot = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
-            self.child[self.len] = MaybeUninit::new(n.child[slot]);
-            self.meta[self.len] = MaybeUninit::new(n.meta[slot]);
-            self.len += 1;
-        }
-    }
-
-    /// [`LaneStack::push_portable`] in AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    pub(crate) unsafe fn push_avx2(&mut self, n: &Node8, entered: u32) {
-        use std::arch::x86_64::*;
-        assert!(self.len < WIDE_STACK, "wide traversal stack overflow");
-        // SAFETY: as in `OrderedStack::push_avx2`.
-        unsafe {
-            let packed = _mm256_set1_epi32(COMPRESS[entered as usize & 0xff] as i32);
-            let lanes = _mm256_and_si256(
-                _mm256_srlv_epi32(packed, _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21)),
-                _mm256_set1_epi32(7),
-            );
-            let at = self.len;
-            _mm256_storeu_si256(
-                self.child.as_mut_ptr().add(at).cast(),
-                _mm256_permutevar8x32_epi32(_mm256_loadu_si256(n.child.as_ptr().cast()), lanes),
-            );
-            _mm256_storeu_si256(
-                self.meta.as_mut_ptr().add(at).cast(),
-                _mm256_permutevar8x32_epi32(_mm256_loadu_si256(n.meta.as_ptr().cast()), lanes),
-            );
-            self.len = at + entered.count_ones() as usize;
+            self.refs.store_permuted(n, lanes, entered.count_ones());
         }
     }
 }
