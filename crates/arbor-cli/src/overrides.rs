@@ -4,8 +4,8 @@
 //! byte for byte), so a scene needs no copy to be rendered differently.
 
 use arbor::camera::CameraKind;
+use arbor::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 use arbor::scene::{Scene, Variant};
-use arbor::xml::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 use clap::Args;
 use glam::DVec3;
 

@@ -590,7 +590,7 @@ fn print_ray_stats(
 pub(crate) fn load_scene_or_model(
     path: &Path,
     options: &arbor::load::ModelOptions,
-) -> anyhow::Result<arbor::xml::LoadedScene> {
+) -> anyhow::Result<arbor::scene::LoadedScene> {
     arbor::load::load_scene_with(path, options).map_err(|e| InputError(e.to_string()).into())
 }
 

@@ -672,8 +672,7 @@ impl From<SingularTransform> for FlattenError {
     }
 }
 
-/// Default limit on placements of shared geometry.
-pub const DEFAULT_MAX_PLACEMENTS: u64 = 1 << 22;
+pub use crate::limits::DEFAULT_MAX_PLACEMENTS;
 
 /// The scene after flattening with instancing kept: world-space geometry for
 /// what is placed once, shared geometry for what is placed more often, and

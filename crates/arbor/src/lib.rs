@@ -1,7 +1,7 @@
 //! arbor: a Whitted-style ray tracer built around the scene structures and
 //! acceleration structures of Cornell's "Ray Tracing II".
 //!
-//! Data flows one way: [`xml`] loads a [`scene::Scene`] (the scene graph of
+//! Data flows one way: [`load`] reads a [`scene::Scene`] (the scene graph of
 //! [`surface`]s), [`flatten`] compiles it into primitives, [`tracer`] puts an
 //! acceleration structure from `arbor-accel` over them, [`render`] shades
 //! camera rays into a [`film::Film`], which is written as PNG or EXR.
@@ -36,6 +36,7 @@ pub mod flatten;
 mod hash_map;
 pub mod heatmap;
 pub mod light;
+pub mod limits;
 pub mod load;
 pub mod partial;
 pub mod ray;
@@ -48,4 +49,4 @@ pub mod terminator;
 pub mod texture;
 pub mod tracer;
 pub mod traversal;
-pub mod xml;
+pub mod variant;

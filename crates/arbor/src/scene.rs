@@ -10,16 +10,7 @@ use crate::light::Light;
 use crate::surface::Surface;
 use crate::texture::CubeMap;
 
-/// Which edition of the Cornell course's conventions a scene follows
-/// (`docs/cornell-scene-format.md` §1). They differ in camera model, light
-/// falloff, shading details, recursion limits and output conversion.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Variant {
-    /// The Fall 2010 framework (no `type` on `<camera>`).
-    Cornell2010,
-    /// The Fall 2015 framework (typed cameras and lights, exposure, ...).
-    Cornell2015,
-}
+pub use crate::variant::Variant;
 
 /// A complete scene, ready to be compiled for rendering.
 #[derive(Clone, Debug)]
@@ -59,4 +50,14 @@ impl Scene {
         self.height = height;
         self.camera.view_height = self.camera.view_width * height as f64 / width as f64;
     }
+}
+
+/// A loaded scene and the warnings met on the way (unknown attributes,
+/// skipped polygons, ...), each already located as `FILE:LINE:COL: ...`.
+#[derive(Debug)]
+pub struct LoadedScene {
+    /// The scene.
+    pub scene: Scene,
+    /// Non-fatal remarks for the user.
+    pub warnings: Vec<String>,
 }

@@ -12,9 +12,9 @@ use std::sync::atomic::AtomicBool;
 
 use arbor::compare::compare_rgb8;
 use arbor::flatten::{FlatGeometry, FlattenedScene};
+use arbor::load::xml::load_scene;
 use arbor::render::render;
 use arbor::tracer::{Tracer, TracerOptions};
-use arbor::xml::load_scene;
 use arbor_accel::AccelKind;
 
 fn scenes(shared: &std::path::Path) -> Vec<PathBuf> {

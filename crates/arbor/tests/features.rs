@@ -6,11 +6,11 @@ use std::sync::atomic::AtomicBool;
 
 use arbor::film::Film;
 use arbor::flatten::{FlatGeometry, FlattenedScene};
+use arbor::load::xml::parse_scene;
 use arbor::ray::Ray;
 use arbor::render::render;
 use arbor::scene::{Scene, Variant};
 use arbor::tracer::{Tracer, TracerOptions};
-use arbor::xml::parse_scene;
 use glam::DVec3;
 
 fn load(xml: &str) -> Scene {

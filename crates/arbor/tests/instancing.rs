@@ -5,11 +5,11 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use arbor::flatten::{FlatGeometry, FlattenError, FlattenedScene};
+use arbor::load::xml::parse_scene;
 use arbor::ray::Ray;
 use arbor::render::render;
 use arbor::scene::Scene;
 use arbor::tracer::{Tracer, TracerOptions};
-use arbor::xml::parse_scene;
 use arbor_accel::AccelKind;
 use glam::DVec3;
 

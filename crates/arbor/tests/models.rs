@@ -321,7 +321,7 @@ fn ply_and_stl_serve_as_xml_mesh_data() {
 <light><position>3 4 5</position></light></scene>"#,
     )
     .unwrap();
-    let loaded = arbor::xml::load_scene(&scene).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = arbor::load::xml::load_scene(&scene).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(triangles(&loaded.scene.surfaces), 3);
 }
 

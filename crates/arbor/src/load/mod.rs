@@ -10,7 +10,7 @@
 //! * [`load_model`] and [`load_model_scene`]: a model to render (OBJ through
 //!   tobj with ear clipping, PLY, STL, glTF), framed with a camera, a floor
 //!   and lights ([`frame`]);
-//! * [`load_cornell_scene`]: a Cornell XML scene ([`crate::xml`]), whose OBJ
+//! * [`load_cornell_scene`]: a Cornell XML scene ([`xml`]), whose OBJ
 //!   meshes follow the Cornell 2015 rule;
 //! * [`load_scene`]: whatever `arbor render` draws, a Cornell scene or a
 //!   framed model.
@@ -28,7 +28,7 @@ pub mod frame;
 pub mod gltf;
 mod gltf_ext;
 mod gltf_material;
-mod mesh_data;
+mod loaded_mesh;
 mod model;
 pub mod msh;
 mod mtl;
@@ -39,10 +39,12 @@ pub mod ply;
 pub mod stl;
 mod text;
 pub mod triangulate;
+pub mod xml;
 
+pub use crate::surface::MeshData;
 pub use error::LoadError;
 pub use format::Format;
-pub use mesh_data::{LoadedMesh, MeshData};
+pub use loaded_mesh::LoadedMesh;
 pub use model::{
     default_shader, load_model, load_model_scene, load_model_scene_with, load_model_with, Model,
     ModelOptions, ModelStats, Up,
@@ -50,7 +52,7 @@ pub use model::{
 pub use msh::{load_msh, parse_msh};
 pub use obj_exact::{load_obj, parse_obj, ObjRule};
 
-use crate::xml::LoadedScene;
+use crate::scene::LoadedScene;
 use model::{check_finite, ignored_features_warning, note_ignored, sanitize_normals};
 use text::{decode_text, read_bytes, read_text, shorten};
 
@@ -106,7 +108,7 @@ pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
 /// Reads a Cornell XML scene (meshes resolved relative to its folder).
 pub fn load_cornell_scene(path: &Path) -> Result<LoadedScene, LoadError> {
     match Format::from_path(path)? {
-        Format::Xml => crate::xml::load_scene(path),
+        Format::Xml => xml::load_scene(path),
         other => Err(LoadError::file(
             path,
             format!(
@@ -135,7 +137,7 @@ pub fn load_scene_with(path: &Path, options: &ModelOptions) -> Result<LoadedScen
                 warnings: model.warnings,
             })
         }
-        Format::Xml => crate::xml::load_scene(path),
+        Format::Xml => xml::load_scene(path),
         other => Err(LoadError::file(
             path,
             format!(

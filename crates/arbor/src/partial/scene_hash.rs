@@ -18,9 +18,9 @@ use sha2::{Digest, Sha256};
 use crate::camera::{Camera, CameraKind};
 use crate::hash_map::HashMap;
 use crate::light::Light;
-use crate::load::MeshData;
 use crate::scene::{Scene, Variant};
 use crate::shader::{Fresnel, Shader};
+use crate::surface::MeshData;
 use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
 use crate::texture::{CubeMap, Texture, Wrap};
 

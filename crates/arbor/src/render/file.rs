@@ -13,11 +13,11 @@ use arbor_accel::AccelKind;
 
 use crate::film::Film;
 use crate::flatten::{FlattenError, FlattenedScene, DEFAULT_MAX_PLACEMENTS};
+use crate::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 use crate::load::{LoadError, ModelOptions};
+use crate::scene::LoadedScene;
 use crate::scene::{Scene, Variant};
 use crate::tracer::{BoundingVolumeKind, Tracer, TracerOptions};
-use crate::xml::LoadedScene;
-use crate::xml::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 /// What [`render_file`] changes from the file's own settings, and how it
 /// renders; [`Default`] is `arbor render` without options.

@@ -9,12 +9,12 @@ use std::sync::Arc;
 
 use glam::{DMat4, DVec3};
 
-use crate::load::MeshData;
 use crate::shader::Shader;
 
 pub mod box_;
 pub mod cylinder;
 pub mod group;
+mod mesh_data;
 pub mod sphere;
 pub mod transformed;
 pub mod triangle;
@@ -22,6 +22,7 @@ pub mod triangle;
 pub use box_::BoxSurface;
 pub use cylinder::Cylinder;
 pub use group::Group;
+pub use mesh_data::MeshData;
 pub use sphere::Sphere;
 pub use transformed::Transform;
 

@@ -5,8 +5,8 @@ use std::sync::Arc;
 use glam::DVec3;
 
 use crate::ray::Ray;
-use crate::scene::Variant;
 use crate::shader::Shader;
+use crate::variant::Variant;
 
 /// A sphere given by centre and radius (in its own space).
 #[derive(Clone, Debug)]

@@ -1,4 +1,6 @@
-//! Triangle meshes as loaded from files, before they enter a scene.
+//! Triangle meshes as the files give them, before they enter a scene: the
+//! data every loader produces and [`super::MeshSurface`] holds (it sits at
+//! the surface level so that surfaces need nothing from the loaders).
 
 use glam::{Vec2, Vec3};
 
@@ -21,17 +23,6 @@ pub struct MeshData {
     pub colors: Option<Vec<Vec3>>,
     /// Triangles as indices into `positions` (every index is in range).
     pub triangles: Vec<[u32; 3]>,
-}
-
-/// One mesh file as loaded, and what the reader dropped.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct LoadedMesh {
-    /// The triangles.
-    pub mesh: MeshData,
-    /// OBJ `f` lines with more than 3 corners that
-    /// [`super::ObjRule::Cornell2015`] skipped, so that the caller can warn
-    /// (always 0 for other rules and formats).
-    pub skipped_polygons: usize,
 }
 
 impl MeshData {

@@ -12,40 +12,23 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::{DMat4, DVec3};
+use glam::DVec3;
 use roxmltree::{Document, Node};
 
 use crate::camera::{Camera, CameraKind};
 use crate::light::Light;
-use crate::load::{load_mesh, Format, LoadError, MeshData, ObjRule};
-use crate::scene::{Scene, Variant};
-use crate::shader::{Fresnel, Shader};
-use crate::surface::transformed::{rotation_degrees, scaling, translation};
-use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
+use crate::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_NESTING, MAX_SAMPLES};
+use crate::load::{load_mesh, Format, LoadError, ObjRule};
+use crate::scene::{LoadedScene, Scene, Variant};
+use crate::shader::Shader;
+use crate::surface::{MeshData, Surface};
 use crate::texture::{CubeMap, TexelEncoding, Texture, Wrap};
 
+mod shader;
+mod surface;
 mod values;
 
 pub use values::{parse_int, parse_number, parse_size, parse_vector};
-
-/// Largest image side accepted (pixels).
-pub const MAX_IMAGE_SIDE: i64 = 65_536;
-/// Largest image accepted (pixels in all).
-pub const MAX_IMAGE_PIXELS: i64 = 1 << 28;
-/// Largest `<samples>` value accepted.
-pub const MAX_SAMPLES: i64 = 1 << 16;
-/// Deepest group nesting accepted (deeper scenes would exhaust the stack).
-pub const MAX_NESTING: usize = 1_000;
-
-/// A loaded scene and the warnings met on the way (unknown attributes,
-/// skipped polygons, ...), each already located as `FILE:LINE:COL: ...`.
-#[derive(Debug)]
-pub struct LoadedScene {
-    /// The scene.
-    pub scene: Scene,
-    /// Non-fatal remarks for the user.
-    pub warnings: Vec<String>,
-}
 
 /// Reads and parses the scene file at `path`; meshes are resolved relative
 /// to its folder.
@@ -535,142 +518,6 @@ impl<'a, 'input> Loader<'a, 'input> {
         Ok(light)
     }
 
-    fn shader(&mut self, node: Node) -> Result<Arc<Shader>> {
-        self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Shader(s) => Ok(s),
-                other => Err(self.wrong_kind(node, &other, "shader")),
-            };
-        }
-        let mut types = vec!["Lambertian", "Phong", "Glazed", "Glass"];
-        if self.is2015() {
-            types.extend(["RGBNormals", "CookTorrance"]);
-        }
-        let Some(ty) = node.attribute("type") else {
-            return Err(self.error(
-                node,
-                format!(
-                    "<{}> needs a type attribute; expected one of {}",
-                    tag(node),
-                    types.join(", ")
-                ),
-            ));
-        };
-        if !types.contains(&ty) {
-            return Err(self.error(
-                node,
-                format!(
-                    "unknown shader type '{ty}'; expected one of {}",
-                    types.join(", ")
-                ),
-            ));
-        }
-        let mut diffuse = DVec3::ONE;
-        let mut specular = DVec3::ONE;
-        let mut exponent = 1.0;
-        let mut refractive_index = None;
-        let mut substrate = None;
-        let mut fresnel = None;
-        let mut roughness = 1.0;
-        let mut texture = None;
-        let mut expected: Vec<&str> = match ty {
-            "Lambertian" => vec!["diffuseColor"],
-            "Phong" => vec!["diffuseColor", "specularColor", "exponent"],
-            "Glazed" => vec!["refractiveIndex", "substrate", "fresnel"],
-            "Glass" => vec!["refractiveIndex"],
-            "CookTorrance" => vec![
-                "diffuseColor",
-                "specularColor",
-                "roughness",
-                "refractiveIndex",
-            ],
-            _ => vec![],
-        };
-        if !self.is2015() && matches!(ty, "Glazed" | "Glass") {
-            expected.push("exponent");
-        }
-        if self.is2015() {
-            expected.push("texture");
-        }
-        for child in elements(node) {
-            let k = key(child);
-            if !expected.iter().any(|e| e.eq_ignore_ascii_case(&k)) {
-                let shown = if expected.is_empty() {
-                    vec!["no child elements"]
-                } else {
-                    expected.clone()
-                };
-                return Err(self.unknown_element(
-                    child,
-                    &format!("<{} type=\"{ty}\">", tag(node)),
-                    &shown,
-                ));
-            }
-            match k.as_str() {
-                "diffusecolor" => diffuse = self.vector(child)?,
-                "specularcolor" => specular = self.vector(child)?,
-                "exponent" => exponent = self.number(child)?,
-                "refractiveindex" => refractive_index = Some(self.positive(child)?),
-                "roughness" => roughness = self.positive(child)?,
-                "substrate" => substrate = Some(self.shader(child)?),
-                "texture" => texture = Some(self.texture(child)?),
-                "fresnel" => {
-                    let text = self.text(child)?;
-                    fresnel = Some(match text.trim() {
-                        "schlick" => Fresnel::Schlick,
-                        "exact" => Fresnel::Exact,
-                        other => {
-                            return Err(self.error(
-                                child,
-                                format!("<fresnel> must be 'schlick' or 'exact', found '{other}'"),
-                            ))
-                        }
-                    });
-                }
-                _ => unreachable!("filtered by the expected list"),
-            }
-        }
-        let need_index = |this: &Self| {
-            refractive_index
-                .ok_or_else(|| this.error(node, format!("a {ty} shader needs a <refractiveIndex>")))
-        };
-        let shader = match ty {
-            "Lambertian" => Shader::Lambertian { diffuse, texture },
-            "Phong" => Shader::Phong {
-                diffuse,
-                specular,
-                exponent,
-                texture,
-            },
-            "Glazed" => Shader::Glazed {
-                refractive_index: need_index(self)?,
-                substrate: substrate.ok_or_else(|| {
-                    self.error(node, "a Glazed shader needs a <substrate> shader")
-                })?,
-                fresnel: fresnel.unwrap_or(if self.is2015() {
-                    Fresnel::Exact
-                } else {
-                    Fresnel::Schlick
-                }),
-            },
-            "Glass" => Shader::Glass {
-                refractive_index: need_index(self)?,
-            },
-            "RGBNormals" => Shader::RgbNormals,
-            _ => Shader::CookTorrance {
-                diffuse,
-                specular,
-                roughness,
-                refractive_index: refractive_index.unwrap_or(0.0),
-                texture,
-            },
-        };
-        let shader = Arc::new(shader);
-        self.remember(node, Named::Shader(shader.clone()));
-        Ok(shader)
-    }
-
     fn texture(&mut self, node: Node) -> Result<Arc<Texture>> {
         self.check_attributes(node);
         if let Some(named) = self.referenced(node)? {
@@ -802,158 +649,6 @@ impl<'a, 'input> Loader<'a, 'input> {
         self.pending.remove(name);
         self.depth -= 1;
         Ok(())
-    }
-
-    fn surface(&mut self, node: Node<'a, 'input>) -> Result<Surface> {
-        self.check_attributes(node);
-        if let Some(name) = node.attribute("ref") {
-            if let Some(def) = self.pending.get(name).copied() {
-                self.resolve(name, def)?;
-            }
-        }
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Surface(shared) => Ok(Surface::Instance(shared)),
-                other => Err(self.wrong_kind(node, &other, "surface")),
-            };
-        }
-        let mut types = vec!["Sphere", "Box", "Mesh", "Group"];
-        if self.is2015() {
-            types.push("Cylinder");
-        }
-        let ty = match node.attribute("type") {
-            Some(t) if types.contains(&t) => t,
-            Some(t) => {
-                return Err(self.error(
-                    node,
-                    format!(
-                        "unknown surface type '{t}'; expected one of {}",
-                        types.join(", ")
-                    ),
-                ))
-            }
-            None => {
-                return Err(self.error(
-                    node,
-                    format!(
-                        "<{}> needs a type attribute; expected one of {}",
-                        tag(node),
-                        types.join(", ")
-                    ),
-                ))
-            }
-        };
-        let expected: &[&str] = match ty {
-            "Sphere" => &["center", "radius", "shader"],
-            "Box" => &["minPt", "maxPt", "shader"],
-            "Mesh" => &["data", "shader"],
-            "Cylinder" => &["center", "radius", "height", "shader"],
-            _ => &["translate", "rotate", "scale", "surface", "shader"],
-        };
-        let mut shader = None;
-        let mut center = DVec3::ZERO;
-        let mut radius = 1.0;
-        let mut height = 1.0;
-        let mut min = DVec3::ZERO;
-        let mut max = DVec3::ZERO;
-        let mut data = None;
-        let mut transform = DMat4::IDENTITY;
-        let mut children = Vec::new();
-        if ty == "Group" {
-            self.depth += 1;
-            if self.depth > MAX_NESTING {
-                return Err(self.error(
-                    node,
-                    format!("groups are nested more than {MAX_NESTING} deep"),
-                ));
-            }
-        }
-        for child in elements(node) {
-            let k = key(child);
-            if !expected.iter().any(|e| e.eq_ignore_ascii_case(&k)) {
-                return Err(self.unknown_element(
-                    child,
-                    &format!("<{} type=\"{ty}\">", tag(node)),
-                    expected,
-                ));
-            }
-            match k.as_str() {
-                "shader" => shader = Some(self.shader(child)?),
-                "center" => center = self.vector(child)?,
-                "radius" => radius = self.positive(child)?,
-                "height" => height = self.positive(child)?,
-                "minpt" => min = self.vector(child)?,
-                "maxpt" => max = self.vector(child)?,
-                "data" => data = Some((child, self.text(child)?.trim().to_string())),
-                "surface" => children.push(self.surface(child)?),
-                "translate" | "rotate" | "scale" => {
-                    let v = self.vector(child)?;
-                    let m = match k.as_str() {
-                        "translate" => translation(v),
-                        "rotate" => rotation_degrees(v),
-                        _ => {
-                            if v.x == 0.0 || v.y == 0.0 || v.z == 0.0 {
-                                return Err(self.error(child, "<scale> factors must not be zero"));
-                            }
-                            scaling(v)
-                        }
-                    };
-                    // Spec §5.5: 2010 applies the last element first, 2015 the first.
-                    transform = match self.variant {
-                        Variant::Cornell2010 => transform * m,
-                        Variant::Cornell2015 => m * transform,
-                    };
-                }
-                _ => unreachable!("filtered by the expected list"),
-            }
-        }
-        let shader = shader.unwrap_or_else(|| Arc::new(Shader::default_lambertian()));
-        let surface = match ty {
-            "Sphere" => Surface::Sphere(Sphere {
-                center,
-                radius,
-                shader,
-            }),
-            "Box" => {
-                if !(min.cmple(max).all()) {
-                    return Err(self.error(node, format!("a Box needs minPt <= maxPt on every axis; found minPt {min} and maxPt {max}")));
-                }
-                Surface::Box(BoxSurface { min, max, shader })
-            }
-            "Cylinder" => Surface::Cylinder(Cylinder {
-                center,
-                radius,
-                height,
-                shader,
-            }),
-            "Mesh" => {
-                let (at, file) = data.ok_or_else(|| {
-                    self.error(node, "a Mesh needs a <data> element naming its mesh file")
-                })?;
-                let data = self.mesh(at, &file)?;
-                Surface::Mesh(MeshSurface {
-                    data,
-                    shader,
-                    two_sided: false,
-                    soft_terminator: false,
-                })
-            }
-            _ => {
-                self.depth -= 1;
-                Surface::Group(Group {
-                    transform,
-                    children,
-                })
-            }
-        };
-        // A named surface may be placed again by `ref`: share it from the start,
-        // so that every placement (this one included) is an instance of it.
-        if node.has_attribute("name") {
-            let shared = Arc::new(surface);
-            self.remember(node, Named::Surface(shared.clone()));
-            return Ok(Surface::Instance(shared));
-        }
-        Ok(surface)
     }
 
     fn mesh(&mut self, at: Node, file: &str) -> Result<Arc<MeshData>> {
