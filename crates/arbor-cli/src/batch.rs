@@ -6,11 +6,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::Context;
-use arbor::load::load_ray_mesh;
 use arbor_accel::{AccelKind, BuildQuality, MeshAccel};
 use clap::Args;
 
 use crate::accel_arg::QualityArg;
+use crate::input::{load_input, ReadAs};
 use crate::InputError;
 
 /// How a batch query command runs: threads, repetitions, structure.
@@ -71,7 +71,7 @@ pub fn load_and_build(
 ) -> anyhow::Result<(MeshAccel, f64)> {
     let kind = structure.kind;
     let params = MeshAccel::params(kind).with_quality(structure.quality);
-    let data = load_mesh(path)?;
+    let data = load_input(Some(path), ReadAs::Mesh, true)?.into_mesh()?;
     let mut best = f64::INFINITY;
     let mut built = None;
     for _ in 0..repeat.max(1) {
@@ -84,13 +84,6 @@ pub fn load_and_build(
     }
     let mesh = built.context("internal error: no structure was built")?;
     Ok((mesh, best))
-}
-
-/// Reads `path` as a triangle mesh for ray casting (every mesh format, glTF
-/// as one mesh with its node transforms: [`load_ray_mesh`]), as `arbor
-/// trace` and `arbor bench` read it.
-pub fn load_mesh(path: &Path) -> anyhow::Result<arbor::load::MeshData> {
-    load_ray_mesh(path).map_err(|e| InputError(e.to_string()).into())
 }
 
 /// Reads a file of fixed-size little-endian records with no header; `what`

@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use crate::accel_arg::{AccelChoice, QualityArg};
+use crate::input::{load_input, Input, ReadAs};
 use crate::InputError;
 
 mod plot;
@@ -567,33 +568,37 @@ fn measure<S: Subject>(
         .collect()
 }
 
-/// What `arbor bench` reads.
-enum Input {
+/// What `arbor bench` times.
+enum Benched {
     Mesh(MeshSubject),
     Scene(SceneSubject),
 }
 
-/// Reads the input by its format: a Cornell `.xml` scene goes through the
-/// tracer; every mesh format (glTF as one mesh with its node transforms)
-/// is read by `arbor trace`'s loader, so triangle numbering and speed match.
-fn load_input(path: &Path) -> anyhow::Result<Input> {
-    if Format::from_path(path).map_err(|e| InputError(e.to_string()))? == Format::Xml {
-        let scene = arbor::load::load_cornell_scene(path)
-            .map_err(|e| InputError(e.to_string()))?
-            .scene;
-        let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS)
-            .map_err(|e| InputError(e.to_string()))?;
-        let primitives = flat.world.len() + flat.placements.len();
-        return Ok(Input::Scene(SceneSubject { scene, primitives }));
+/// Reads the input as the CLI's one loader gives it for benching: a
+/// Cornell `.xml` scene goes through the tracer; every mesh format (glTF as
+/// one mesh with its node transforms) is read by `arbor trace`'s loader, so
+/// triangle numbering and speed match.
+fn load_subject(path: &Path) -> anyhow::Result<Benched> {
+    match load_input(Some(path), ReadAs::SceneOrMesh, false)? {
+        Input::Mesh(mesh) => {
+            if mesh.triangles.is_empty() {
+                return Err(
+                    InputError(format!("{}: the mesh has no triangles", path.display())).into(),
+                );
+            }
+            Ok(Benched::Mesh(MeshSubject {
+                vertices: mesh.positions,
+                triangles: mesh.triangles,
+            }))
+        }
+        other => {
+            let scene = other.into_scene()?;
+            let flat = FlattenedScene::new(&scene, DEFAULT_MAX_PLACEMENTS)
+                .map_err(|e| InputError(e.to_string()))?;
+            let primitives = flat.world.len() + flat.placements.len();
+            Ok(Benched::Scene(SceneSubject { scene, primitives }))
+        }
     }
-    let mesh = crate::batch::load_mesh(path)?;
-    if mesh.triangles.is_empty() {
-        return Err(InputError(format!("{}: the mesh has no triangles", path.display())).into());
-    }
-    Ok(Input::Mesh(MeshSubject {
-        vertices: mesh.positions,
-        triangles: mesh.triangles,
-    }))
 }
 
 /// Runs `arbor bench`.
@@ -618,10 +623,10 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
         .into());
     }
     let pool = crate::thread_pool(args.threads.map(|n| n as usize))?;
-    let input = load_input(&args.input)?;
+    let input = load_subject(&args.input)?;
     let report = pool.install(|| -> anyhow::Result<Report> {
         let results = match &input {
-            Input::Mesh(m) => bench_with(m, &accels, &kinds, &args, |k| {
+            Benched::Mesh(m) => bench_with(m, &accels, &kinds, &args, |k| {
                 let (vertices, triangles) = (m.vertices.clone(), m.triangles.clone());
                 let params = MeshAccel::params(k).with_quality(args.build.quality);
                 let start = Instant::now();
@@ -631,7 +636,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             })?,
             // Flattening is the same for every structure: only the tracer's
             // build is timed.
-            Input::Scene(s) => bench_with(s, &accels, &kinds, &args, |k| {
+            Benched::Scene(s) => bench_with(s, &accels, &kinds, &args, |k| {
                 let flat = s.flatten()?;
                 let start = Instant::now();
                 let tracer = Tracer::build(flat, &TracerOptions::with_accel(k));
@@ -639,8 +644,8 @@ pub fn run(args: BenchArgs) -> anyhow::Result<()> {
             })?,
         };
         let primitives = match &input {
-            Input::Mesh(m) => m.primitives(),
-            Input::Scene(s) => s.primitives(),
+            Benched::Mesh(m) => m.primitives(),
+            Benched::Scene(s) => s.primitives(),
         };
         Ok(Report {
             input: args.input.display().to_string(),

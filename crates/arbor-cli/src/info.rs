@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use arbor::census::{Census, CensusError};
 use arbor::light::Light;
-use arbor::load::{Format, Model};
+use arbor::load::Model;
 use arbor::scene::{Scene, Variant};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
@@ -16,6 +16,7 @@ use clap::Args;
 use glam::DVec3;
 use serde_json::json;
 
+use crate::input::{load_input, Input, ReadAs};
 use crate::render::plural;
 use crate::InputError;
 
@@ -40,28 +41,13 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     if let Some(path) = &args.json {
         crate::output::check_writable(path, "--json")?;
     }
-    let (name, scene, model) = match &args.input {
-        Some(path) if Format::from_path(path).is_ok_and(Format::is_model) => {
-            let (scene, model) =
-                arbor::load::load_model_scene(path).map_err(|e| InputError(e.to_string()))?;
-            for w in &model.warnings {
-                eprintln!("{w}");
-            }
-            (path.display().to_string(), scene, Some(model))
-        }
-        Some(path) => {
-            let loaded =
-                arbor::load::load_cornell_scene(path).map_err(|e| InputError(e.to_string()))?;
-            for w in &loaded.warnings {
-                eprintln!("{w}");
-            }
-            (path.display().to_string(), loaded.scene, None)
-        }
-        None => (
-            "(built-in default scene)".to_string(),
-            arbor::default_scene::classroom(),
-            None,
-        ),
+    let name = match &args.input {
+        Some(path) => path.display().to_string(),
+        None => "(built-in default scene)".to_string(),
+    };
+    let (scene, model) = match load_input(args.input.as_deref(), ReadAs::Description, false)? {
+        Input::Model { scene, model } => (scene, Some(*model)),
+        other => (other.into_scene()?, None),
     };
     // Everything is counted before anything is printed or written: a scene
     // that cannot be counted (too deep, counts beyond 128 bits) is an input

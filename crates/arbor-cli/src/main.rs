@@ -14,6 +14,7 @@ mod explain;
 mod farm;
 mod huge_pages;
 mod info;
+mod input;
 mod merge;
 mod output;
 mod overrides;

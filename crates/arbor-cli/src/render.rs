@@ -17,6 +17,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use arbor::render::render_region_observed;
 use arbor::stats::{NoStats, RayKind, RenderStats};
 
+use crate::input::{load_input, ReadAs};
 use crate::InputError;
 
 /// Arguments of `arbor render`.
@@ -173,7 +174,9 @@ fn prepare(args: &RenderArgs) -> anyhow::Result<Job> {
 
     // The library's steps (load, then --spp and --size), then the
     // command's own overrides.
-    let mut scene = load_input(args.scene.as_deref(), &render_options(args), args.quiet)?;
+    let options = render_options(args);
+    let read_as = ReadAs::Render(&options);
+    let mut scene = load_input(args.scene.as_deref(), read_as, args.quiet)?.into_scene()?;
     args.overrides.apply_quick_and_defines(&mut scene)?;
     let (region, tile) = match spec {
         // `resolve` names --region; a crop is the same rectangle, named as given.
@@ -205,29 +208,6 @@ fn render_options(args: &RenderArgs) -> RenderOptions {
         max_placements: args.max_instances,
         bounding_volume: args.bvol,
     }
-}
-
-/// The input as `arbor render` reads it, with `options`' samples and size:
-/// a scene or model file (printing the loader's warnings unless `quiet`),
-/// or without one the built-in classroom.
-pub(crate) fn load_input(
-    path: Option<&Path>,
-    options: &RenderOptions,
-    quiet: bool,
-) -> anyhow::Result<Scene> {
-    let input_error = |e: arbor::render::RenderFileError| InputError(e.to_string());
-    let Some(path) = path else {
-        let mut scene = arbor::default_scene::classroom();
-        arbor::render::apply_samples_and_size(options, &mut scene).map_err(input_error)?;
-        return Ok(scene);
-    };
-    let loaded = arbor::render::load(path, options).map_err(input_error)?;
-    if !quiet {
-        for w in &loaded.warnings {
-            eprintln!("{w}");
-        }
-    }
-    Ok(loaded.scene)
 }
 
 /// The tracer and what building it took.
@@ -583,15 +563,6 @@ fn print_ray_stats(
             took.as_secs_f64()
         );
     }
-}
-
-/// What `arbor render` draws: a Cornell XML scene or a framed model, chosen
-/// by the loader's format registry.
-pub(crate) fn load_scene_or_model(
-    path: &Path,
-    options: &arbor::load::ModelOptions,
-) -> anyhow::Result<arbor::scene::LoadedScene> {
-    arbor::load::load_scene_with(path, options).map_err(|e| InputError(e.to_string()).into())
 }
 
 /// A render estimated to take longer than this says so, with the reason.

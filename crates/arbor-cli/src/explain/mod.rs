@@ -22,6 +22,7 @@ use arbor_accel::AccelKind;
 use clap::Args;
 use serde_json::{json, Value};
 
+use crate::input::{load_input, ReadAs};
 use crate::InputError;
 use structures::View;
 use traversal::InnerLayouts;
@@ -130,7 +131,8 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
         bounding_volume: args.bvol,
         ..Default::default()
     };
-    let mut scene = crate::render::load_input(args.input.as_deref(), &options, args.quiet)?;
+    let read_as = ReadAs::Render(&options);
+    let mut scene = load_input(args.input.as_deref(), read_as, args.quiet)?.into_scene()?;
     let (w, h) = picture_size(&scene, args.size);
     if (w, h) != (scene.width, scene.height) {
         crate::overrides::resize(&mut scene, w, h);

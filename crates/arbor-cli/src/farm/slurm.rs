@@ -16,6 +16,8 @@ use arbor::film::ImageFormat;
 use arbor_accel::AccelKind;
 use clap::Args;
 
+use crate::input::{load_input, ReadAs};
+
 use super::{
     array_batches, index_list, max_array_size, parts_dir, recorded_jobs, render_tasks, squeue,
     Manifest, PartState,
@@ -392,7 +394,8 @@ fn load_scenes(scenes: &[PathBuf], tiles: u32, output: &Path) -> anyhow::Result<
             .canonicalize()
             .map_err(|e| InputError(format!("{}: cannot read scene file: {e}", path.display())))?;
         // The same loader as `arbor render`, so the hash is the tasks' own.
-        let scene = crate::render::load_scene_or_model(&abs, &Default::default())?.scene;
+        let options = arbor::render::RenderOptions::default();
+        let scene = load_input(Some(&abs), ReadAs::Render(&options), true)?.into_scene()?;
         if tiles > scene.height {
             return Err(InputError(format!(
                 "{}: --tiles {tiles}: the image has {} rows; at most {} tiles",

@@ -88,9 +88,32 @@ impl Format {
     }
 
     /// Whether the format holds one triangle mesh (`.msh`, OBJ, PLY, STL), as
-    /// a scene's `Mesh` surface or `arbor bench` reads it.
+    /// a scene's `Mesh` surface reads it.
     pub fn is_mesh(self) -> bool {
         matches!(self, Format::Msh | Format::Obj | Format::Ply | Format::Stl)
+    }
+
+    /// Whether `arbor trace` and `arbor bench` read the format as one mesh
+    /// to cast rays at: every mesh format, and glTF with its node
+    /// transforms applied.
+    pub fn is_ray_mesh(self) -> bool {
+        self.is_mesh() || matches!(self, Format::Gltf | Format::Glb)
+    }
+
+    /// The extensions of the formats `pick` selects, in [`Format::ALL`]'s
+    /// order, as the messages list them (".ply, .stl or .msh"), so that no
+    /// message keeps a list of its own.
+    pub fn listed(pick: fn(Format) -> bool) -> String {
+        let names: Vec<String> = Format::ALL
+            .into_iter()
+            .filter(|&f| pick(f))
+            .map(|f| format!(".{}", f.extension()))
+            .collect();
+        match names.split_last() {
+            Some((last, rest)) if !rest.is_empty() => format!("{} or {last}", rest.join(", ")),
+            Some((last, _)) => last.clone(),
+            None => String::new(),
+        }
     }
 }
 
@@ -115,5 +138,16 @@ mod tests {
         );
         let e = Format::from_path(Path::new("formatDetection")).unwrap_err();
         assert!(e.message.contains("(no extension)"), "{e}");
+    }
+
+    #[test]
+    fn lists_follow_the_registry() {
+        assert_eq!(Format::listed(Format::is_mesh), ".obj, .ply, .stl or .msh");
+        assert_eq!(
+            Format::listed(Format::is_ray_mesh),
+            ".obj, .ply, .stl, .gltf, .glb or .msh"
+        );
+        assert_eq!(Format::listed(|f| f == Format::Xml), ".xml");
+        assert_eq!(Format::listed(|_| false), "");
     }
 }

@@ -68,8 +68,9 @@ pub fn load_mesh(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
             return Err(LoadError::file(
                 path,
                 format!(
-                    "a .{} file is not a mesh; expected a .msh, .obj, .ply or .stl file",
-                    other.extension()
+                    "a .{} file is not a mesh; expected a {} file",
+                    other.extension(),
+                    Format::listed(Format::is_mesh)
                 ),
             ))
         }
@@ -91,15 +92,14 @@ pub fn load_mesh(path: &Path, rule: ObjRule) -> Result<LoadedMesh, LoadError> {
 /// as the renderer assembles them; points and lines have no triangles).
 pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
     match Format::from_path(path)? {
-        Format::Msh | Format::Obj | Format::Ply | Format::Stl => {
-            Ok(load_mesh(path, ObjRule::Fan)?.mesh)
-        }
         Format::Gltf | Format::Glb => placed::placed_mesh(&gltf::load(path)?.surfaces, path),
+        f if f.is_mesh() => Ok(load_mesh(path, ObjRule::Fan)?.mesh),
         other => Err(LoadError::file(
             path,
             format!(
-                "a .{} file is not a mesh for ray casting; expected a .msh, .obj, .ply, .stl, .gltf or .glb file",
-                other.extension()
+                "a .{} file is not a mesh for ray casting; expected a {} file",
+                other.extension(),
+                Format::listed(Format::is_ray_mesh)
             ),
         )),
     }
@@ -141,8 +141,9 @@ pub fn load_scene_with(path: &Path, options: &ModelOptions) -> Result<LoadedScen
         other => Err(LoadError::file(
             path,
             format!(
-                "a .{} file is a mesh, not a scene; expected a Cornell .xml scene or a .obj, .ply, .stl, .gltf or .glb model",
-                other.extension()
+                "a .{} file is a mesh, not a scene; expected a Cornell .xml scene or a {} model",
+                other.extension(),
+                Format::listed(Format::is_model)
             ),
         )),
     }
@@ -200,7 +201,7 @@ mod tests {
         std::fs::write(&other, "<scene/>").unwrap();
         let e = load_ray_mesh(&other).unwrap_err();
         assert!(
-            e.message.contains(".msh, .obj, .ply, .stl, .gltf or .glb"),
+            e.message.contains(".obj, .ply, .stl, .gltf, .glb or .msh"),
             "{e}"
         );
     }

@@ -100,8 +100,9 @@ fn read_model(path: &Path) -> Result<Model, LoadError> {
         other => Err(LoadError::file(
             path,
             format!(
-                "a .{} file is not a model; expected .obj, .ply, .stl, .gltf or .glb",
-                other.extension()
+                "a .{} file is not a model; expected {}",
+                other.extension(),
+                Format::listed(Format::is_model)
             ),
         )),
     }

@@ -664,8 +664,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             return Err(self.error(
                 at,
                 format!(
-                    "mesh file '{file}' is a .{} file; expected a .msh, .obj, .ply or .stl mesh",
-                    format.extension()
+                    "mesh file '{file}' is a .{} file; expected a {} mesh",
+                    format.extension(),
+                    Format::listed(Format::is_mesh)
                 ),
             ));
         }
