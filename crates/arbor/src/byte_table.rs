@@ -17,8 +17,7 @@
 
 use std::sync::OnceLock;
 
-use crate::film::to_byte;
-use crate::scene::Variant;
+use crate::variant::Variant;
 
 /// The smallest radiance with a bucket, `2^-21`.
 const LOW: f64 = 1.0 / (1u64 << 21) as f64;
@@ -39,6 +38,21 @@ fn bucket(c: f64) -> usize {
 /// The smallest radiance of bucket `k` (`k == BUCKETS` gives 1).
 fn bucket_start(k: usize) -> f64 {
     f64::from_bits(((LOW.to_bits() >> SHIFT) + k as u64) << SHIFT)
+}
+
+/// The spec's colour-to-byte conversion (§7): gamma 1/2.2 on the averaged
+/// linear value, clamped; 2010 rounds the gamma-corrected value to `f32`
+/// first and scales in `f32`, as the Java framework did. NaN becomes 0.
+pub fn to_byte(c: f64, variant: Variant) -> u8 {
+    let g = c.powf(1.0 / 2.2).clamp(0.0, 1.0);
+    if g.is_nan() {
+        return 0;
+    }
+    let scaled = match variant {
+        Variant::Cornell2010 => (255.0f32 * g as f32) as f64,
+        Variant::Cornell2015 => 255.0 * g,
+    };
+    (scaled + 0.5).floor() as u8
 }
 
 /// One variant's conversion: its steps and its buckets' first bytes.

@@ -20,8 +20,8 @@ use std::sync::Arc;
 use glam::{DMat4, DVec3};
 
 use crate::hash_map::HashMap;
-use crate::scene::Variant;
 use crate::surface::Surface;
+use crate::variant::Variant;
 
 /// Deepest nesting accepted: groups and references along any path from a
 /// top-level surface to a leaf. Deeper graphs are refused rather than

@@ -9,8 +9,9 @@ use std::path::{Path, PathBuf};
 use glam::DVec3;
 use rayon::prelude::*;
 
+pub use crate::byte_table::to_byte;
 use crate::byte_table::ByteTable;
-use crate::scene::Variant;
+use crate::variant::Variant;
 
 /// A width x height grid of linear RGB radiance, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -118,21 +119,6 @@ impl Film {
             .to_buffered(out)
             .map_err(|e| io::Error::other(e.to_string()))
     }
-}
-
-/// The spec's colour-to-byte conversion (§7): gamma 1/2.2 on the averaged
-/// linear value, clamped; 2010 rounds the gamma-corrected value to `f32`
-/// first and scales in `f32`, as the Java framework did. NaN becomes 0.
-pub fn to_byte(c: f64, variant: Variant) -> u8 {
-    let g = c.powf(1.0 / 2.2).clamp(0.0, 1.0);
-    if g.is_nan() {
-        return 0;
-    }
-    let scaled = match variant {
-        Variant::Cornell2010 => (255.0f32 * g as f32) as f64,
-        Variant::Cornell2015 => 255.0 * g,
-    };
-    (scaled + 0.5).floor() as u8
 }
 
 /// Output image formats, chosen by file extension.

@@ -7,7 +7,7 @@ use super::part_file::{PartError, PartHeader, Partial};
 use super::scene_hash::hex;
 use crate::film::Film;
 use crate::hash_map::HashMap;
-use crate::scene::Variant;
+use crate::variant::Variant;
 
 /// Checks a set of part headers and tells where each goes: they must come
 /// from one scene and settings, and cover the image exactly once.

@@ -11,7 +11,7 @@ use sha2::{Digest, Sha256};
 use super::tile::tile_region;
 use crate::film::{atomic_write, Film, WriteError};
 use crate::render::Region;
-use crate::scene::Variant;
+use crate::variant::Variant;
 
 /// The first eight bytes of every part file.
 pub const MAGIC: [u8; 8] = *b"ARBORPRT";

@@ -8,10 +8,10 @@ use roxmltree::Node;
 
 use super::{elements, key, tag, Loader, Named, Result};
 use crate::limits::MAX_NESTING;
-use crate::scene::Variant;
 use crate::shader::Shader;
 use crate::surface::transformed::{rotation_degrees, scaling, translation};
 use crate::surface::{BoxSurface, Cylinder, Group, MeshSurface, Sphere, Surface};
+use crate::variant::Variant;
 
 impl<'a, 'input> Loader<'a, 'input> {
     /// A `<surface>` (or a reference to one); a named surface comes back as
