@@ -132,6 +132,31 @@ fn wait_gone(job: &str) {
     }
 }
 
+/// The option that makes `arbor farm slurm` submit its jobs held: an
+/// `#SBATCH --hold` line in both scripts. (Not the `SBATCH_HOLD`
+/// environment variable: the sbatch of Debian 12's Slurm 22.05, as in CI,
+/// has no such variable and submitted those jobs free to run, so a "held"
+/// task could start whenever the node had a CPU free, as it did once when
+/// the tests ran in parallel.)
+const HOLD: &str = "--sbatch-arg=--hold";
+
+/// Asserts that every queued task of the jobs `ids` is held, so that what
+/// a test checks next cannot race with them running.
+fn assert_held(ids: &[&str]) {
+    if let Some(listed) = not_held(ids) {
+        panic!("jobs {ids:?} are not all held:\n{listed}");
+    }
+}
+
+/// The queue lines of the jobs `ids` when some task of theirs is not held
+/// (or none is queued).
+fn not_held(ids: &[&str]) -> Option<String> {
+    let q = tool("squeue", &["-h", "-r", "-j", &ids.join(","), "-o", "%i %r"]);
+    let listed = String::from_utf8_lossy(&q.stdout).into_owned();
+    let held = !listed.trim().is_empty() && listed.lines().all(|l| l.ends_with(" JobHeldUser"));
+    (!held).then_some(listed)
+}
+
 fn jobs(parts: &Path, kind: &str) -> Vec<String> {
     fs::read_to_string(parts.join("jobs.txt"))
         .unwrap()
@@ -244,10 +269,13 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
     let seq = [
         "farm", "slurm", "a.xml", "b.xml", "--tiles", "4", "-o", "frames",
     ];
-    ok(arbor(d, &seq, &[("SBATCH_HOLD", "1")]));
+    let mut held = seq.to_vec();
+    held.push(HOLD);
+    ok(arbor(d, &held, &[]));
     let parts = d.join("frames.parts");
     let render = jobs(&parts, "render").pop().unwrap();
     let merge = jobs(&parts, "merge").pop().unwrap();
+    assert_held(&[&render, &merge]);
     // Task 5 is scene b, tile 1.
     assert!(tool("scancel", &[&format!("{render}_5")]).status.success());
     assert!(tool("scontrol", &["release", &render]).status.success());
@@ -307,14 +335,16 @@ fn slurm_jobs_carry_the_cluster_options() {
             "--mem",
             "1M",
             "--sbatch-arg=--comment=arbor-farm-options",
+            HOLD,
         ],
-        &[("SBATCH_HOLD", "1")],
+        &[],
     ));
     let parts = d.join("opt.png.parts");
     let ids = [
         jobs(&parts, "render").pop().unwrap(),
         jobs(&parts, "merge").pop().unwrap(),
     ];
+    assert_held(&[&ids[0], &ids[1]]);
     for id in &ids {
         let o = tool("scontrol", &["show", "job", id]);
         let shown = text(&o);
@@ -553,8 +583,8 @@ fn tasks_beyond_max_array_size_go_in_several_arrays() {
     }
     let mut args = vec!["farm", "slurm"];
     args.extend(scenes.iter().map(String::as_str));
-    args.extend(["--tiles", "24", "-o", "seq"]);
-    let o = ok(arbor(d, &args, &[("SBATCH_HOLD", "1")]));
+    args.extend(["--tiles", "24", "-o", "seq", HOLD]);
+    let o = ok(arbor(d, &args, &[]));
     let parts = d.join("seq.parts");
     let renders = jobs(&parts, "render");
     let merge = jobs(&parts, "merge").pop().unwrap();
@@ -564,6 +594,15 @@ fn tasks_beyond_max_array_size_go_in_several_arrays() {
         }
         tool("scancel", &[&merge]);
     };
+    let mut ids: Vec<&str> = renders
+        .iter()
+        .map(|r| r.split(' ').next().unwrap())
+        .collect();
+    ids.push(&merge);
+    if let Some(listed) = not_held(&ids) {
+        cancel_all();
+        panic!("jobs {ids:?} are not all held:\n{listed}");
+    }
     let tasks = count * 24;
     let windows = tasks.div_ceil(max) as usize;
     if renders.len() != windows {
