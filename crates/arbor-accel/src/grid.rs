@@ -45,6 +45,107 @@ impl Default for GridParams {
 /// never walk the ray past a cell that holds a hit.
 const DILATION: f32 = 1.0 / 256.0;
 
+/// The cell boundaries of a grid being built and what is needed to find
+/// the cells a primitive overlaps.
+struct Cells<'a> {
+    /// Cell boundaries per axis.
+    planes: &'a [Vec<f32>; 3],
+    /// The grid's lower corner.
+    min: Vec3,
+    inv_cell: Vec3,
+    /// How far cells are widened ([`DILATION`] of the largest cell extent).
+    dil: f32,
+    /// Cells along x and y.
+    rx: usize,
+    ry: usize,
+}
+
+impl Cells<'_> {
+    /// The cells (widened by `dil`) that primitive `id` with box `pb`
+    /// overlaps, in cell order: every cell of its box when that is one
+    /// cell, else those its clipped bounds reach.
+    fn of<P: Primitives + ?Sized>(&self, prims: &P, &(id, pb): &(u32, Aabb)) -> Vec<u32> {
+        let (planes, dil) = (self.planes, self.dil);
+        let mut lo = [0usize; 3];
+        let mut hi = [0usize; 3];
+        for a in 0..3 {
+            (lo[a], hi[a]) = self.range(a, &pb);
+        }
+        let single = lo == hi;
+        let mut out = Vec::new();
+        for z in lo[2]..=hi[2] {
+            for y in lo[1]..=hi[1] {
+                for x in lo[0]..=hi[0] {
+                    let keep = single || {
+                        let cell = Aabb::new(
+                            Vec3::new(planes[0][x], planes[1][y], planes[2][z]) - dil,
+                            Vec3::new(planes[0][x + 1], planes[1][y + 1], planes[2][z + 1]) + dil,
+                        );
+                        prims.clipped_bounds(id, &cell).is_some()
+                    };
+                    if keep {
+                        out.push(((z * self.ry + y) * self.rx + x) as u32);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// The first and last cell along axis `a` whose widened slab overlaps
+    /// box `pb`: a guess from the cell size, corrected against the planes.
+    fn range(&self, a: usize, pb: &Aabb) -> (usize, usize) {
+        let (p, dil) = (&self.planes[a], self.dil);
+        let r = p.len() - 1;
+        let guess = |x: f32| (((x - self.min[a]) * self.inv_cell[a]).max(0.0) as usize).min(r - 1);
+        // Cell i (widened) overlaps [pb.min, pb.max] iff
+        // p[i] - dil <= pb.max and p[i + 1] + dil >= pb.min.
+        let mut l = guess(pb.min[a] - dil);
+        while l > 0 && p[l] + dil >= pb.min[a] {
+            l -= 1;
+        }
+        while l + 1 < r && p[l + 1] + dil < pb.min[a] {
+            l += 1;
+        }
+        let mut h = guess(pb.max[a] + dil).max(l);
+        while h + 1 < r && p[h + 1] - dil <= pb.max[a] {
+            h += 1;
+        }
+        while h > l && p[h] - dil > pb.max[a] {
+            h -= 1;
+        }
+        (l, h)
+    }
+}
+
+/// The cell lists as compressed sparse rows (`start`, primitive ids): a
+/// counting sort in primitive order, so the layout does not depend on
+/// scheduling.
+fn compressed_rows(
+    lists: &[Vec<u32>],
+    refs: &[(u32, Aabb)],
+    ncells: usize,
+) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; ncells + 1];
+    for l in lists {
+        for &c in l {
+            start[c as usize + 1] += 1;
+        }
+    }
+    for i in 0..ncells {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut cell_prims = vec![0u32; start[ncells] as usize];
+    for (l, &(id, _)) in lists.iter().zip(refs) {
+        for &c in l {
+            cell_prims[fill[c as usize] as usize] = id;
+            fill[c as usize] += 1;
+        }
+    }
+    (start, cell_prims)
+}
+
 /// A uniform grid over any [`Primitives`], with cells in compressed sparse
 /// row form: cell `c` holds `prims[start[c]..start[c + 1]]`.
 #[derive(Clone, Debug, Default)]
@@ -91,76 +192,17 @@ impl Grid {
             }
         }));
         let cell_ext = Vec3::from_array(std::array::from_fn(|a| ext[a] / res[a] as f32));
-        let dil = cell_ext.max_element() * DILATION;
-        let (rx, ry) = (res[0] as usize, res[1] as usize);
-        let cells_of = |&(id, pb): &(u32, Aabb)| -> Vec<u32> {
-            let mut lo = [0usize; 3];
-            let mut hi = [0usize; 3];
-            for a in 0..3 {
-                let p = &planes[a];
-                let r = p.len() - 1;
-                let guess = |x: f32| (((x - b.min[a]) * inv_cell[a]).max(0.0) as usize).min(r - 1);
-                // Cell i (widened) overlaps [pb.min, pb.max] iff
-                // p[i] - dil <= pb.max and p[i + 1] + dil >= pb.min.
-                let mut l = guess(pb.min[a] - dil);
-                while l > 0 && p[l] + dil >= pb.min[a] {
-                    l -= 1;
-                }
-                while l + 1 < r && p[l + 1] + dil < pb.min[a] {
-                    l += 1;
-                }
-                let mut h = guess(pb.max[a] + dil).max(l);
-                while h + 1 < r && p[h + 1] - dil <= pb.max[a] {
-                    h += 1;
-                }
-                while h > l && p[h] - dil > pb.max[a] {
-                    h -= 1;
-                }
-                lo[a] = l;
-                hi[a] = h;
-            }
-            let single = lo == hi;
-            let mut out = Vec::new();
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        let keep = single || {
-                            let cell = Aabb::new(
-                                Vec3::new(planes[0][x], planes[1][y], planes[2][z]) - dil,
-                                Vec3::new(planes[0][x + 1], planes[1][y + 1], planes[2][z + 1])
-                                    + dil,
-                            );
-                            prims.clipped_bounds(id, &cell).is_some()
-                        };
-                        if keep {
-                            out.push(((z * ry + y) * rx + x) as u32);
-                        }
-                    }
-                }
-            }
-            out
+        let cells = Cells {
+            planes: &planes,
+            min: b.min,
+            inv_cell,
+            dil: cell_ext.max_element() * DILATION,
+            rx: res[0] as usize,
+            ry: res[1] as usize,
         };
-        let lists: Vec<Vec<u32>> = prep.refs.par_iter().map(cells_of).collect();
-        // Counting sort into CSR, in primitive order so the layout does not
-        // depend on scheduling.
-        let ncells = rx * ry * res[2] as usize;
-        let mut start = vec![0u32; ncells + 1];
-        for l in &lists {
-            for &c in l {
-                start[c as usize + 1] += 1;
-            }
-        }
-        for i in 0..ncells {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut cell_prims = vec![0u32; start[ncells] as usize];
-        for (l, &(id, _)) in lists.iter().zip(&prep.refs) {
-            for &c in l {
-                cell_prims[fill[c as usize] as usize] = id;
-                fill[c as usize] += 1;
-            }
-        }
+        let lists: Vec<Vec<u32>> = prep.refs.par_iter().map(|r| cells.of(prims, r)).collect();
+        let ncells = cells.rx * cells.ry * res[2] as usize;
+        let (start, cell_prims) = compressed_rows(&lists, &prep.refs, ncells);
         grid.bounds = b;
         grid.res = res;
         grid.planes = planes;

@@ -31,16 +31,7 @@ struct Tmp {
 /// Builds the tree; returns nodes, primitive ids in leaf order and depth.
 pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>, usize) {
     let n = refs.len();
-    let cb = refs.iter().fold(Aabb::EMPTY, |c, r| c.grow(r.centroid()));
-    let grid = MortonGrid::new(&cb);
-    let mut keyed: Vec<(u64, u32)> = refs
-        .par_iter()
-        .enumerate()
-        .map(|(i, r)| (grid.code(r.centroid()), i as u32))
-        .collect();
-    // Keys are unique (the index breaks ties), so the order is deterministic.
-    keyed.par_sort_unstable();
-
+    let clusters = morton_order(refs);
     let mut tmp: Vec<Tmp> = refs
         .iter()
         .enumerate()
@@ -51,30 +42,33 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         })
         .collect();
     tmp.reserve(n);
-    let mut clusters: Vec<u32> = keyed.iter().map(|&(_, i)| i).collect();
+    let root = cluster(&mut tmp, clusters, params);
+    let collapse = sah_collapse(&tmp, params);
+    emit(&tmp, &collapse, root, refs, params)
+}
+
+/// The reference indices sorted along a Morton curve of their centroids.
+fn morton_order(refs: &[Ref]) -> Vec<u32> {
+    let cb = refs.iter().fold(Aabb::EMPTY, |c, r| c.grow(r.centroid()));
+    let grid = MortonGrid::new(&cb);
+    let mut keyed: Vec<(u64, u32)> = refs
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| (grid.code(r.centroid()), i as u32))
+        .collect();
+    // Keys are unique (the index breaks ties), so the order is deterministic.
+    keyed.par_sort_unstable();
+    keyed.iter().map(|&(_, i)| i).collect()
+}
+
+/// Merges `clusters` (nodes of `tmp`, in Morton order) pass after pass
+/// until one is left, appending the merged nodes to `tmp`; returns the
+/// root.
+fn cluster(tmp: &mut Vec<Tmp>, mut clusters: Vec<u32>, params: &BvhParams) -> usize {
     let radius = params.ploc_radius.max(1);
     while clusters.len() > 1 {
+        let nn = nearest_neighbours(tmp, &clusters, radius, params);
         let m = clusters.len();
-        let boxes: Vec<Aabb> = clusters.iter().map(|&c| tmp[c as usize].b).collect();
-        // Distance between i and j, with the pair's indices as tie-breakers:
-        // a symmetric total order, so the globally closest pair is always
-        // mutual and every pass merges something.
-        let key =
-            |i: usize, j: usize| (boxes[i].union(&boxes[j]).surface_area(), i.min(j), i.max(j));
-        let nearest = |i: usize| {
-            let lo = i.saturating_sub(radius);
-            let hi = (i + radius).min(m - 1);
-            (lo..=hi)
-                .filter(|&j| j != i)
-                .map(|j| (key(i, j), j))
-                .min_by(|(a, _), (b, _)| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))))
-                .map_or(i, |(_, j)| j)
-        };
-        let nn: Vec<usize> = if m >= params.parallel_threshold {
-            (0..m).into_par_iter().map(nearest).collect()
-        } else {
-            (0..m).map(nearest).collect()
-        };
         let mut next = Vec::with_capacity(m);
         for i in 0..m {
             let j = nn[i];
@@ -94,9 +88,42 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         }
         clusters = next;
     }
-    let root = clusters[0] as usize;
+    clusters[0] as usize
+}
 
-    // Bottom-up SAH: children precede parents in `tmp`, so one forward pass.
+/// For every cluster, the position of its nearest neighbour (smallest
+/// union surface area) among the `radius` clusters before and after it.
+fn nearest_neighbours(
+    tmp: &[Tmp],
+    clusters: &[u32],
+    radius: usize,
+    params: &BvhParams,
+) -> Vec<usize> {
+    let m = clusters.len();
+    let boxes: Vec<Aabb> = clusters.iter().map(|&c| tmp[c as usize].b).collect();
+    // Distance between i and j, with the pair's indices as tie-breakers:
+    // a symmetric total order, so the globally closest pair is always
+    // mutual and every pass merges something.
+    let key = |i: usize, j: usize| (boxes[i].union(&boxes[j]).surface_area(), i.min(j), i.max(j));
+    let nearest = |i: usize| {
+        let lo = i.saturating_sub(radius);
+        let hi = (i + radius).min(m - 1);
+        (lo..=hi)
+            .filter(|&j| j != i)
+            .map(|j| (key(i, j), j))
+            .min_by(|(a, _), (b, _)| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))))
+            .map_or(i, |(_, j)| j)
+    };
+    if m >= params.parallel_threshold {
+        (0..m).into_par_iter().map(nearest).collect()
+    } else {
+        (0..m).map(nearest).collect()
+    }
+}
+
+/// Bottom-up SAH: for every node of `tmp`, whether its subtree becomes one
+/// leaf. Children precede parents in `tmp`, so one forward pass.
+fn sah_collapse(tmp: &[Tmp], params: &BvhParams) -> Vec<bool> {
     let (ct, ci) = (
         f64::from(params.traversal_cost),
         f64::from(params.intersection_cost),
@@ -117,8 +144,19 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         collapse[k] = count[k] as usize <= params.max_leaf_size && leaf <= split;
         cost[k] = if collapse[k] { leaf } else { split };
     }
+    collapse
+}
 
-    // Depth-first emission into the compact layout.
+/// Depth-first emission of the tree below `root` into the compact layout;
+/// returns nodes, primitive ids in leaf order and depth.
+fn emit(
+    tmp: &[Tmp],
+    collapse: &[bool],
+    root: usize,
+    refs: &[Ref],
+    params: &BvhParams,
+) -> (Vec<BvhNode>, Vec<u32>, usize) {
+    let n = refs.len();
     let mut nodes: Vec<BvhNode> = Vec::with_capacity(2 * n);
     let mut order: Vec<Ref> = Vec::with_capacity(n);
     let mut max_depth = 0;
@@ -132,7 +170,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
         let t = tmp[k];
         if collapse[k] {
             leaf_refs.clear();
-            gather(&tmp, k, &mut leaf_refs);
+            gather(tmp, k, &mut leaf_refs);
             nodes.push(BvhNode::leaf(&t.b, order.len(), leaf_refs.len()));
             order.extend(leaf_refs.iter().map(|&i| refs[i as usize]));
             max_depth = max_depth.max(depth);
@@ -140,7 +178,7 @@ pub(super) fn build(refs: &[Ref], params: &BvhParams) -> (Vec<BvhNode>, Vec<u32>
             // Clustering can produce long chains; rebuild such a deep subtree
             // by halving so traversal's fixed stack always suffices.
             leaf_refs.clear();
-            gather(&tmp, k, &mut leaf_refs);
+            gather(tmp, k, &mut leaf_refs);
             let mut sub: Vec<Ref> = leaf_refs.iter().map(|&i| refs[i as usize]).collect();
             let first = order.len();
             let bounds = topdown::bounds_of(&sub);

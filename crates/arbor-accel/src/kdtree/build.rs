@@ -299,57 +299,126 @@ pub(super) fn split_node<P: Primitives + ?Sized>(
         refs,
         events,
     } = node;
-    let n = refs.len();
-    let parallel = n >= params.parallel_threshold;
+    let parallel = refs.len() >= params.parallel_threshold;
     let (mut below_box, mut above_box) = (bounds, bounds);
     below_box.max[split.axis] = split.pos;
     above_box.min[split.axis] = split.pos;
-
-    let sides: Vec<u8> = refs.iter().map(|(_, b)| side_of(b, split)).collect();
-    let straddlers: Vec<usize> = (0..n).filter(|&i| sides[i] == BOTH).collect();
-    let clip = |&i: &usize| {
-        let (id, b) = refs[i];
-        let part = |region: &Aabb| {
-            prims
-                .clipped_bounds(id, region)
-                .map(|c| c.intersection(&b))
-                .filter(|c| !c.is_empty())
-        };
-        (part(&below_box), part(&above_box))
-    };
-    let clipped: Vec<(Option<Aabb>, Option<Aabb>)> = if parallel {
-        straddlers.par_iter().map(clip).collect()
+    let (partition, below_refs, above_refs) =
+        Partition::new(prims, &refs, split, [&below_box, &above_box], parallel);
+    let [ex, ey, ez] = events;
+    let ((bx, ax), ((by, ay), (bz, az))) = if parallel {
+        rayon::join(
+            || partition.split_axis(0, ex),
+            || {
+                rayon::join(
+                    || partition.split_axis(1, ey),
+                    || partition.split_axis(2, ez),
+                )
+            },
+        )
     } else {
-        straddlers.iter().map(clip).collect()
+        (
+            partition.split_axis(0, ex),
+            (partition.split_axis(1, ey), partition.split_axis(2, ez)),
+        )
     };
+    (
+        BuildNode {
+            bounds: below_box,
+            refs: below_refs,
+            events: [bx, by, bz],
+        },
+        BuildNode {
+            bounds: above_box,
+            refs: above_refs,
+            events: [ax, ay, az],
+        },
+    )
+}
 
-    // New indices in each child (u32::MAX: not there), children's references.
-    let mut below_index = vec![u32::MAX; n];
-    let mut above_index = vec![u32::MAX; n];
-    let mut below_refs = Vec::new();
-    let mut above_refs = Vec::new();
-    let mut next_clipped = clipped.iter();
-    for (i, &(id, b)) in refs.iter().enumerate() {
-        let (to_below, to_above) = match sides[i] {
-            BELOW => (Some(b), None),
-            ABOVE => (None, Some(b)),
-            _ => *next_clipped.next().expect("one clip per straddler"),
+/// Where a node's references go when it is split: the side of each, the
+/// straddlers' boxes clipped to each child, and each reference's new index
+/// in each child.
+struct Partition {
+    sides: Vec<u8>,
+    /// The straddling references, in order.
+    straddlers: Vec<usize>,
+    /// Per straddler, its box clipped to the below and the above child
+    /// (`None`: it does not reach that child).
+    clipped: Vec<(Option<Aabb>, Option<Aabb>)>,
+    /// New indices in each child (`u32::MAX`: not there).
+    below_index: Vec<u32>,
+    above_index: Vec<u32>,
+}
+
+impl Partition {
+    /// The partition of `refs` by `split` into the child regions
+    /// `[below, above]`, with the children's references.
+    #[allow(clippy::type_complexity)]
+    fn new<P: Primitives + ?Sized>(
+        prims: &P,
+        refs: &[(u32, Aabb)],
+        split: &Split,
+        [below_box, above_box]: [&Aabb; 2],
+        parallel: bool,
+    ) -> (Partition, Vec<(u32, Aabb)>, Vec<(u32, Aabb)>) {
+        let n = refs.len();
+        let sides: Vec<u8> = refs.iter().map(|(_, b)| side_of(b, split)).collect();
+        let straddlers: Vec<usize> = (0..n).filter(|&i| sides[i] == BOTH).collect();
+        let clip = |&i: &usize| {
+            let (id, b) = refs[i];
+            let part = |region: &Aabb| {
+                prims
+                    .clipped_bounds(id, region)
+                    .map(|c| c.intersection(&b))
+                    .filter(|c| !c.is_empty())
+            };
+            (part(below_box), part(above_box))
         };
-        if let Some(c) = to_below {
-            below_index[i] = below_refs.len() as u32;
-            below_refs.push((id, c));
+        let clipped: Vec<(Option<Aabb>, Option<Aabb>)> = if parallel {
+            straddlers.par_iter().map(clip).collect()
+        } else {
+            straddlers.iter().map(clip).collect()
+        };
+
+        let mut below_index = vec![u32::MAX; n];
+        let mut above_index = vec![u32::MAX; n];
+        let mut below_refs = Vec::new();
+        let mut above_refs = Vec::new();
+        let mut next_clipped = clipped.iter();
+        for (i, &(id, b)) in refs.iter().enumerate() {
+            let (to_below, to_above) = match sides[i] {
+                BELOW => (Some(b), None),
+                ABOVE => (None, Some(b)),
+                _ => *next_clipped.next().expect("one clip per straddler"),
+            };
+            if let Some(c) = to_below {
+                below_index[i] = below_refs.len() as u32;
+                below_refs.push((id, c));
+            }
+            if let Some(c) = to_above {
+                above_index[i] = above_refs.len() as u32;
+                above_refs.push((id, c));
+            }
         }
-        if let Some(c) = to_above {
-            above_index[i] = above_refs.len() as u32;
-            above_refs.push((id, c));
-        }
+        let partition = Partition {
+            sides,
+            straddlers,
+            clipped,
+            below_index,
+            above_index,
+        };
+        (partition, below_refs, above_refs)
     }
 
-    let split_axis = |axis: usize, events: Vec<Event>| {
+    /// The below and above children's sorted events on `axis`, from the
+    /// parent's sorted `events` of that axis.
+    fn split_axis(&self, axis: usize, events: Vec<Event>) -> (Vec<Event>, Vec<Event>) {
+        let (sides, below_index, above_index) = (&self.sides, &self.below_index, &self.above_index);
         // Events of the clipped straddlers, sorted (there are few).
         let mut new_below = Vec::new();
         let mut new_above = Vec::new();
-        for (&i, (cb, ca)) in straddlers.iter().zip(&clipped) {
+        for (&i, (cb, ca)) in self.straddlers.iter().zip(&self.clipped) {
             if let Some(c) = cb {
                 push_events(&mut new_below, c, axis, below_index[i]);
             }
@@ -383,28 +452,7 @@ pub(super) fn split_node<P: Primitives + ?Sized>(
         below.extend_from_slice(&new_below[nb..]);
         above.extend_from_slice(&new_above[na..]);
         (below, above)
-    };
-    let [ex, ey, ez] = events;
-    let ((bx, ax), ((by, ay), (bz, az))) = if parallel {
-        rayon::join(
-            || split_axis(0, ex),
-            || rayon::join(|| split_axis(1, ey), || split_axis(2, ez)),
-        )
-    } else {
-        (split_axis(0, ex), (split_axis(1, ey), split_axis(2, ez)))
-    };
-    (
-        BuildNode {
-            bounds: below_box,
-            refs: below_refs,
-            events: [bx, by, bz],
-        },
-        BuildNode {
-            bounds: above_box,
-            refs: above_refs,
-            events: [ax, ay, az],
-        },
-    )
+    }
 }
 
 /// A built subtree: nodes with the subtree's root at index 0 (child indices
