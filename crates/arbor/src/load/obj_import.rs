@@ -48,13 +48,66 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
     let text = super::decode_text(&bytes, path)?;
     let mut warnings = Vec::new();
     let clean = prepass(&text, path, &mut warnings)?;
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let (models, materials) = parse(&clean, path, &dir, &mut warnings)?;
+    let mut meshes = Meshes {
+        ignored: Vec::new(),
+        shaders: HashMap::default(),
+        textures: Textures::new(&dir),
+        default: default_shader(),
+        surfaces: Vec::new(),
+        stats: ModelStats::default(),
+        undefined_material: false,
+    };
+    for m in &models {
+        let Some(data) = mesh_data(&m.mesh) else {
+            continue;
+        };
+        meshes.add(data, m.mesh.material_id, &materials, path, &mut warnings)?;
+    }
+    let Meshes {
+        ignored,
+        surfaces,
+        stats,
+        undefined_material,
+        ..
+    } = meshes;
+    warnings.extend(super::ignored_features_warning(path, &ignored));
+    if undefined_material {
+        warnings.push(format!(
+            "{}: warning: faces use a material the library does not define; they get the default material",
+            path.display()
+        ));
+    }
+    if surfaces.is_empty() {
+        return Err(LoadError::file(
+            path,
+            "the file has no faces to render (an empty file or a point cloud?)",
+        ));
+    }
+    Ok(Model {
+        surfaces,
+        warnings,
+        stats,
+        ..Model::default()
+    })
+}
+
+/// `tobj`'s reading of the checked text `clean` of the OBJ file `path`:
+/// its models and the materials of its libraries (read from `dir`; a
+/// missing or unreadable library is a warning and no materials).
+fn parse(
+    clean: &str,
+    path: &Path,
+    dir: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>), LoadError> {
     let options = tobj::LoadOptions {
         single_index: true,
         triangulate: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     // Libraries are read by us (any encoding, warnings naming them); tobj
     // only merges what they hold.
     let library_warnings = RefCell::new(Vec::new());
@@ -87,121 +140,125 @@ pub fn load(path: &Path) -> Result<Model, LoadError> {
             Vec::new()
         }
     };
-    // Material features the shaders leave out, named once for the model.
-    let mut ignored: Vec<&'static str> = Vec::new();
-    let mut shaders: HashMap<usize, Arc<Shader>> = HashMap::default();
-    let mut textures = Textures::new(&dir);
-    let default = default_shader();
-    let mut surfaces = Vec::new();
-    let mut stats = ModelStats::default();
-    let mut undefined_material = false;
-    for m in &models {
-        let mesh = &m.mesh;
-        let positions: Vec<Vec3> = mesh
-            .positions
-            .chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect();
-        let mut data = MeshData {
-            normals: (mesh.normals.len() == mesh.positions.len()).then(|| {
-                mesh.normals
-                    .chunks_exact(3)
-                    .map(|c| Vec3::new(c[0], c[1], c[2]))
-                    .collect()
-            }),
-            colors: (mesh.vertex_color.len() == mesh.positions.len() && !positions.is_empty())
-                .then(|| {
-                    mesh.vertex_color
-                        .chunks_exact(3)
-                        .map(|c| {
-                            let linear = |v: f32| srgb_to_linear(v as f64) as f32;
-                            Vec3::new(linear(c[0]), linear(c[1]), linear(c[2]))
-                        })
-                        .collect()
-                }),
-            uvs: (mesh.texcoords.len() / 2 == positions.len() && !positions.is_empty()).then(
-                || {
-                    mesh.texcoords
-                        .chunks_exact(2)
-                        .map(|c| Vec2::new(c[0], c[1]))
-                        .collect()
-                },
-            ),
-            triangles: Vec::new(),
-            positions,
-        };
-        if mesh.face_arities.is_empty() {
-            data.triangles = mesh
-                .indices
+    Ok((models, materials))
+}
+
+/// One `tobj` mesh as our mesh data, its polygons triangulated; `None`
+/// when no triangle is left.
+fn mesh_data(mesh: &tobj::Mesh) -> Option<MeshData> {
+    let positions: Vec<Vec3> = mesh
+        .positions
+        .chunks_exact(3)
+        .map(|c| Vec3::new(c[0], c[1], c[2]))
+        .collect();
+    let mut data = MeshData {
+        normals: (mesh.normals.len() == mesh.positions.len()).then(|| {
+            mesh.normals
                 .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect();
-        } else {
-            let mut start = 0usize;
-            for &arity in &mesh.face_arities {
-                let end = start + arity as usize;
-                let Some(face) = mesh.indices.get(start..end) else {
-                    break;
-                };
-                triangulate(&data.positions, face, &mut data.triangles);
-                start = end;
-            }
+                .map(|c| Vec3::new(c[0], c[1], c[2]))
+                .collect()
+        }),
+        colors: (mesh.vertex_color.len() == mesh.positions.len() && !positions.is_empty()).then(
+            || {
+                mesh.vertex_color
+                    .chunks_exact(3)
+                    .map(|c| {
+                        let linear = |v: f32| srgb_to_linear(v as f64) as f32;
+                        Vec3::new(linear(c[0]), linear(c[1]), linear(c[2]))
+                    })
+                    .collect()
+            },
+        ),
+        uvs: (mesh.texcoords.len() / 2 == positions.len() && !positions.is_empty()).then(|| {
+            mesh.texcoords
+                .chunks_exact(2)
+                .map(|c| Vec2::new(c[0], c[1]))
+                .collect()
+        }),
+        triangles: Vec::new(),
+        positions,
+    };
+    if mesh.face_arities.is_empty() {
+        data.triangles = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect();
+    } else {
+        let mut start = 0usize;
+        for &arity in &mesh.face_arities {
+            let end = start + arity as usize;
+            let Some(face) = mesh.indices.get(start..end) else {
+                break;
+            };
+            triangulate(&data.positions, face, &mut data.triangles);
+            start = end;
         }
-        if data.triangles.is_empty() {
-            continue;
-        }
+    }
+    (!data.triangles.is_empty()).then_some(data)
+}
+
+/// The surfaces of an OBJ file as they are made, with the shaders made
+/// for its materials so far.
+struct Meshes<'a> {
+    /// Material features the shaders leave out, named once for the model.
+    ignored: Vec<&'static str>,
+    shaders: HashMap<usize, Arc<Shader>>,
+    textures: Textures<'a>,
+    default: Arc<Shader>,
+    surfaces: Vec<Surface>,
+    stats: ModelStats,
+    /// Whether some face names a material no library defines.
+    undefined_material: bool,
+}
+
+impl Meshes<'_> {
+    /// Checks and adds one mesh with the shader of its material.
+    fn add(
+        &mut self,
+        mut data: MeshData,
+        material_id: Option<usize>,
+        materials: &[tobj::Material],
+        path: &Path,
+        warnings: &mut Vec<String>,
+    ) -> Result<(), LoadError> {
         super::check_finite(path, &data.positions)?;
         super::sanitize_normals(&mut data);
-        let shader = match m.mesh.material_id {
-            Some(id) if id < materials.len() => shaders
-                .entry(id)
-                .or_insert_with(|| {
-                    let m = &materials[id];
-                    let texture = m
-                        .diffuse_texture
-                        .as_deref()
-                        .and_then(|name| textures.get(name, &m.name, path, &mut warnings));
-                    super::note_ignored(&mut ignored, ignored_features(m));
-                    shader_for(m, texture)
-                })
-                .clone(),
-            Some(_) => {
-                undefined_material = true;
-                default.clone()
+        let shader = match material_id {
+            Some(id) if id < materials.len() => {
+                let (textures, ignored) = (&mut self.textures, &mut self.ignored);
+                self.shaders
+                    .entry(id)
+                    .or_insert_with(|| {
+                        let m = &materials[id];
+                        let texture = m
+                            .diffuse_texture
+                            .as_deref()
+                            .and_then(|name| textures.get(name, &m.name, path, warnings));
+                        super::note_ignored(ignored, ignored_features(m));
+                        shader_for(m, texture)
+                    })
+                    .clone()
             }
-            None => default.clone(),
+            Some(_) => {
+                self.undefined_material = true;
+                self.default.clone()
+            }
+            None => self.default.clone(),
         };
         let n = data.triangles.len() as u64;
-        stats.meshes += 1;
-        stats.placements += 1;
-        stats.unique_triangles += n;
-        stats.instanced_triangles += n;
-        surfaces.push(Surface::Mesh(MeshSurface {
+        self.stats.meshes += 1;
+        self.stats.placements += 1;
+        self.stats.unique_triangles += n;
+        self.stats.instanced_triangles += n;
+        self.surfaces.push(Surface::Mesh(MeshSurface {
             data: Arc::new(data),
             shader,
             two_sided: true,
             soft_terminator: true,
         }));
+        Ok(())
     }
-    warnings.extend(super::ignored_features_warning(path, &ignored));
-    if undefined_material {
-        warnings.push(format!(
-            "{}: warning: faces use a material the library does not define; they get the default material",
-            path.display()
-        ));
-    }
-    if surfaces.is_empty() {
-        return Err(LoadError::file(
-            path,
-            "the file has no faces to render (an empty file or a point cloud?)",
-        ));
-    }
-    Ok(Model {
-        surfaces,
-        warnings,
-        stats,
-        ..Model::default()
-    })
 }
 
 /// The texture images of one OBJ file's materials (`map_Kd`), each read
@@ -376,23 +433,52 @@ fn lenient_number(token: &str) -> Option<(f32, bool)> {
 /// give it: vertex lines re-printed with clean numbers, bad `f` lines
 /// reported with their line number.
 fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String, LoadError> {
-    let mut out = String::with_capacity(text.len() + 64);
-    // Vertex colours (`v x y z r g b`) are kept only when every vertex has
-    // them: tobj would pair a partial list with the wrong vertices.
-    let colours = {
-        let mut vs = text.lines().filter(|l| l.trim_start().starts_with("v "));
-        let counts = |l: &str| l.split('#').next().unwrap_or("").split_whitespace().count();
-        let first = vs.next();
-        first.is_some_and(|f| counts(f) >= 7) && vs.all(|l| counts(l) >= 7)
-    };
-    let (mut nv, mut nt, mut nn) = (0i64, 0i64, 0i64);
-    let mut faces = 0usize;
-    let mut odd_numbers = 0usize;
-    let mut short_faces = 0usize;
-    let mut not_faces = 0usize;
-    let mut first_odd = 0usize;
+    let mut pass = Prepass::new(text, path);
     for (i, raw) in text.split('\n').enumerate() {
-        let line_no = i + 1;
+        pass.line(i + 1, raw)?;
+    }
+    pass.finish(warnings)
+}
+
+/// The state of [`prepass`]: the text for `tobj` so far and what was
+/// counted on the way.
+struct Prepass<'a> {
+    path: &'a Path,
+    out: String,
+    /// Whether every `v` line carries a colour.
+    colours: bool,
+    /// Vertices, texture coordinates and normals defined so far (what a
+    /// face corner may index).
+    nv: i64,
+    nt: i64,
+    nn: i64,
+    faces: usize,
+    odd_numbers: usize,
+    short_faces: usize,
+    not_faces: usize,
+    /// The line of the first number with trailing characters (0: none).
+    first_odd: usize,
+}
+
+impl<'a> Prepass<'a> {
+    fn new(text: &str, path: &'a Path) -> Self {
+        Prepass {
+            path,
+            out: String::with_capacity(text.len() + 64),
+            colours: every_vertex_has_a_colour(text),
+            nv: 0,
+            nt: 0,
+            nn: 0,
+            faces: 0,
+            odd_numbers: 0,
+            short_faces: 0,
+            not_faces: 0,
+            first_odd: 0,
+        }
+    }
+
+    /// Checks line `line_no` and appends what `tobj` gets of it.
+    fn line(&mut self, line_no: usize, raw: &str) -> Result<(), LoadError> {
         let line = raw.strip_suffix('\r').unwrap_or(raw);
         let body = line.split_once('#').map_or(line, |(b, _)| b);
         let mut tokens = body.split_whitespace();
@@ -403,142 +489,185 @@ fn prepass(text: &str, path: &Path, warnings: &mut Vec<String>) -> Result<String
             _ => None,
         };
         if let Some(needed) = needed {
-            let mut values = Vec::with_capacity(3);
-            let take = match keyword {
-                "vt" => 2,
-                "v" if colours => 6,
-                _ => 3,
-            };
-            for tok in tokens.by_ref().take(take) {
-                let Some((v, odd)) = lenient_number(tok) else {
-                    return Err(LoadError::at(
-                        path,
-                        line_no,
-                        format!("'{keyword}' expects numbers, found '{}'", shorten(tok)),
-                    ));
-                };
-                if odd {
-                    odd_numbers += 1;
-                    if first_odd == 0 {
-                        first_odd = line_no;
-                    }
-                }
-                values.push(v);
-            }
-            if values.len() < needed {
-                return Err(LoadError::at(
-                    path,
-                    line_no,
-                    format!("'{keyword}' expects {needed} numbers or more"),
-                ));
-            }
-            out.push_str(keyword);
-            for v in &values {
-                out.push(' ');
-                out.push_str(&v.to_string());
-            }
-            out.push('\n');
-            match keyword {
-                "v" => nv += 1,
-                "vt" => nt += 1,
-                _ => nn += 1,
-            }
-            continue;
+            return self.vertex_line(line_no, keyword, needed, tokens);
         }
         if keyword == "usemtl" && body.split_whitespace().nth(1).is_none() {
             // `usemtl` naming nothing (after a nameless `newmtl`): the faces
             // have no material. tobj refuses the empty name; a name no
             // library can define (a control character) gives the same.
-            out.push_str("usemtl \u{1}\n");
-            continue;
+            self.out.push_str("usemtl \u{1}\n");
+            return Ok(());
         }
         if keyword == "l" || keyword == "p" {
             // Polylines and points have no area: not faces, not drawn.
-            not_faces += 1;
-            out.push('\n');
-            continue;
+            self.not_faces += 1;
+            self.out.push('\n');
+            return Ok(());
         }
         if keyword == "f" {
             let corners: Vec<&str> = tokens.collect();
             if corners.len() < 3 {
-                short_faces += 1;
-                out.push('\n');
-                continue;
+                self.short_faces += 1;
+                self.out.push('\n');
+                return Ok(());
             }
             for c in &corners {
-                let parts: Vec<&str> = c.split('/').collect();
-                if parts.len() > 3 || parts[0].is_empty() {
-                    return Err(LoadError::at(
-                        path,
-                        line_no,
-                        format!("malformed face corner '{}'", shorten(c)),
-                    ));
-                }
-                for (k, (part, count, noun)) in parts
-                    .iter()
-                    .zip([(nv, "vertex"), (nt, "texture coordinate"), (nn, "normal")])
-                    .map(|(p, (n, noun))| (p, n, noun))
-                    .enumerate()
-                {
-                    if k > 0 && part.is_empty() {
-                        continue;
-                    }
-                    let Ok(idx) = part.parse::<i64>() else {
-                        return Err(LoadError::at(
-                            path,
-                            line_no,
-                            format!("malformed face corner '{}'", shorten(c)),
-                        ));
-                    };
-                    // 1-based; negative counts back from the last one defined.
-                    let ok = if idx > 0 {
-                        idx <= count
-                    } else {
-                        idx < 0 && -idx <= count
-                    };
-                    if !ok {
-                        return Err(LoadError::at(
-                            path,
-                            line_no,
-                            format!(
-                                "{noun} index {idx} is out of range ({count} {noun}s defined so far; indices start at 1)"
-                            ),
-                        ));
-                    }
+                self.check_corner(line_no, c)?;
+            }
+            self.faces += 1;
+        }
+        self.out.push_str(line);
+        self.out.push('\n');
+        Ok(())
+    }
+
+    /// A `v`, `vt` or `vn` line (`needed` numbers at least): re-printed
+    /// with its numbers read as `atof` reads them.
+    fn vertex_line<'t>(
+        &mut self,
+        line_no: usize,
+        keyword: &str,
+        needed: usize,
+        tokens: impl Iterator<Item = &'t str>,
+    ) -> Result<(), LoadError> {
+        let mut values = Vec::with_capacity(3);
+        let take = match keyword {
+            "vt" => 2,
+            "v" if self.colours => 6,
+            _ => 3,
+        };
+        for tok in tokens.take(take) {
+            let Some((v, odd)) = lenient_number(tok) else {
+                return Err(LoadError::at(
+                    self.path,
+                    line_no,
+                    format!("'{keyword}' expects numbers, found '{}'", shorten(tok)),
+                ));
+            };
+            if odd {
+                self.odd_numbers += 1;
+                if self.first_odd == 0 {
+                    self.first_odd = line_no;
                 }
             }
-            faces += 1;
+            values.push(v);
         }
-        out.push_str(line);
-        out.push('\n');
+        if values.len() < needed {
+            return Err(LoadError::at(
+                self.path,
+                line_no,
+                format!("'{keyword}' expects {needed} numbers or more"),
+            ));
+        }
+        self.out.push_str(keyword);
+        for v in &values {
+            self.out.push(' ');
+            self.out.push_str(&v.to_string());
+        }
+        self.out.push('\n');
+        match keyword {
+            "v" => self.nv += 1,
+            "vt" => self.nt += 1,
+            _ => self.nn += 1,
+        }
+        Ok(())
     }
-    if odd_numbers > 0 {
-        warnings.push(format!(
-            "{}:{first_odd}: warning: {odd_numbers} numbers with trailing characters were read up to the first one that is not part of a number",
-            path.display()
-        ));
-    }
-    if not_faces > 0 {
-        warnings.push(format!(
-            "{}: warning: skipped {not_faces} 'l' and 'p' lines (polylines and points have no area to render)",
-            path.display()
-        ));
-    }
-    if short_faces > 0 {
-        warnings.push(format!(
-            "{}: warning: skipped {short_faces} faces with fewer than 3 corners",
-            path.display()
-        ));
-    }
-    if faces == 0 {
-        return Err(LoadError::file(
-            path,
-            if nv == 0 {
-                "the file has no vertices and no faces (is it empty?)"
+
+    /// Checks face corner `c` (`v`, `v/t`, `v//n` or `v/t/n`): well formed,
+    /// every index naming something defined above it.
+    fn check_corner(&self, line_no: usize, c: &str) -> Result<(), LoadError> {
+        let malformed = || {
+            LoadError::at(
+                self.path,
+                line_no,
+                format!("malformed face corner '{}'", shorten(c)),
+            )
+        };
+        let parts: Vec<&str> = c.split('/').collect();
+        if parts.len() > 3 || parts[0].is_empty() {
+            return Err(malformed());
+        }
+        for (k, (part, count, noun)) in parts
+            .iter()
+            .zip([
+                (self.nv, "vertex"),
+                (self.nt, "texture coordinate"),
+                (self.nn, "normal"),
+            ])
+            .map(|(p, (n, noun))| (p, n, noun))
+            .enumerate()
+        {
+            if k > 0 && part.is_empty() {
+                continue;
+            }
+            let Ok(idx) = part.parse::<i64>() else {
+                return Err(malformed());
+            };
+            // 1-based; negative counts back from the last one defined.
+            let ok = if idx > 0 {
+                idx <= count
             } else {
-                "the file has vertices but no faces (a point cloud?); nothing to render"
-            },
-        ));
+                idx < 0 && -idx <= count
+            };
+            if !ok {
+                return Err(LoadError::at(
+                    self.path,
+                    line_no,
+                    format!(
+                        "{noun} index {idx} is out of range ({count} {noun}s defined so far; indices start at 1)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
-    Ok(out)
+
+    /// The warnings for what was read leniently or skipped, then the text;
+    /// an error when no face was left.
+    fn finish(self, warnings: &mut Vec<String>) -> Result<String, LoadError> {
+        let path = self.path;
+        if self.odd_numbers > 0 {
+            warnings.push(format!(
+                "{}:{}: warning: {} numbers with trailing characters were read up to the first one that is not part of a number",
+                path.display(),
+                self.first_odd,
+                self.odd_numbers
+            ));
+        }
+        if self.not_faces > 0 {
+            warnings.push(format!(
+                "{}: warning: skipped {} 'l' and 'p' lines (polylines and points have no area to render)",
+                path.display(),
+                self.not_faces
+            ));
+        }
+        if self.short_faces > 0 {
+            warnings.push(format!(
+                "{}: warning: skipped {} faces with fewer than 3 corners",
+                path.display(),
+                self.short_faces
+            ));
+        }
+        if self.faces == 0 {
+            return Err(LoadError::file(
+                path,
+                if self.nv == 0 {
+                    "the file has no vertices and no faces (is it empty?)"
+                } else {
+                    "the file has vertices but no faces (a point cloud?); nothing to render"
+                },
+            ));
+        }
+        Ok(self.out)
+    }
+}
+
+/// Whether every `v` line carries a colour (`v x y z r g b`): vertex
+/// colours are kept only then, as tobj would pair a partial list with the
+/// wrong vertices.
+fn every_vertex_has_a_colour(text: &str) -> bool {
+    let mut vs = text.lines().filter(|l| l.trim_start().starts_with("v "));
+    let counts = |l: &str| l.split('#').next().unwrap_or("").split_whitespace().count();
+    let first = vs.next();
+    first.is_some_and(|f| counts(f) >= 7) && vs.all(|l| counts(l) >= 7)
 }

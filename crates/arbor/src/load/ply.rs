@@ -118,6 +118,7 @@ struct Header {
     data_start: usize,
 }
 
+/// Reads the header: the format, and the elements with their properties.
 fn read_header(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
     if bytes.is_empty() {
         return Err(LoadError::file(path, "the file is empty"));
@@ -147,64 +148,13 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
         }
         let bad = |m: String| LoadError::at(path, line_no, m);
         match keyword {
-            "format" => {
-                format = Some(match tokens.next() {
-                    Some("ascii") => Format::Ascii,
-                    Some("binary_little_endian") => Format::Little,
-                    Some("binary_big_endian") => Format::Big,
-                    other => {
-                        return Err(bad(format!(
-                            "unknown PLY format '{}'",
-                            shorten(other.unwrap_or(""))
-                        )))
-                    }
-                });
-            }
-            "element" => {
-                let name = tokens.next().unwrap_or("").to_string();
-                let count = tokens
-                    .next()
-                    .and_then(|c| c.parse::<u64>().ok())
-                    .ok_or_else(|| bad("'element' expects a name and a count".into()))?;
-                elements.push(ElementHeader {
-                    name,
-                    count,
-                    props: Vec::new(),
-                    line: line_no,
-                });
-            }
+            "format" => format = Some(header_format(tokens.next()).map_err(bad)?),
+            "element" => elements.push(header_element(tokens, line_no).map_err(bad)?),
             "property" => {
                 let Some(e) = elements.last_mut() else {
                     return Err(bad("'property' before any 'element'".into()));
                 };
-                let ty = tokens.next().unwrap_or("");
-                let prop = if ty == "list" {
-                    let count_ty = tokens.next().unwrap_or("");
-                    let item_ty = tokens.next().unwrap_or("");
-                    match (Ty::parse(count_ty), Ty::parse(item_ty)) {
-                        (Some(c), Some(t)) if !matches!(c, Ty::F32 | Ty::F64) => Prop {
-                            name: tokens.next().unwrap_or("").to_string(),
-                            ty: t,
-                            list_count: Some(c),
-                        },
-                        _ => {
-                            return Err(bad(format!(
-                                "unknown list types '{} {}'",
-                                shorten(count_ty),
-                                shorten(item_ty)
-                            )))
-                        }
-                    }
-                } else {
-                    Prop {
-                        ty: Ty::parse(ty).ok_or_else(|| {
-                            bad(format!("unknown property type '{}'", shorten(ty)))
-                        })?,
-                        name: tokens.next().unwrap_or("").to_string(),
-                        list_count: None,
-                    }
-                };
-                e.props.push(prop);
+                e.props.push(header_property(tokens).map_err(bad)?);
             }
             "end_header" => break,
             // Comments, obj_info, and stray text some exporters write.
@@ -220,6 +170,67 @@ fn read_header(bytes: &[u8], path: &Path) -> Result<Header, LoadError> {
         lines: line_no,
         data_start: pos,
     })
+}
+
+/// The encoding a `format` line names; the message when it is none.
+fn header_format(name: Option<&str>) -> Result<Format, String> {
+    Ok(match name {
+        Some("ascii") => Format::Ascii,
+        Some("binary_little_endian") => Format::Little,
+        Some("binary_big_endian") => Format::Big,
+        other => {
+            return Err(format!(
+                "unknown PLY format '{}'",
+                shorten(other.unwrap_or(""))
+            ))
+        }
+    })
+}
+
+/// The element an `element NAME COUNT` line (header line `line`) declares,
+/// without its properties yet.
+fn header_element<'t>(
+    mut tokens: impl Iterator<Item = &'t str>,
+    line: usize,
+) -> Result<ElementHeader, String> {
+    let name = tokens.next().unwrap_or("").to_string();
+    let count = tokens
+        .next()
+        .and_then(|c| c.parse::<u64>().ok())
+        .ok_or_else(|| "'element' expects a name and a count".to_string())?;
+    Ok(ElementHeader {
+        name,
+        count,
+        props: Vec::new(),
+        line,
+    })
+}
+
+/// The property a `property TYPE NAME` or `property list COUNT ITEM NAME`
+/// line declares (a list's count must be an integer type).
+fn header_property<'t>(mut tokens: impl Iterator<Item = &'t str>) -> Result<Prop, String> {
+    let ty = tokens.next().unwrap_or("");
+    if ty != "list" {
+        return Ok(Prop {
+            ty: Ty::parse(ty).ok_or_else(|| format!("unknown property type '{}'", shorten(ty)))?,
+            name: tokens.next().unwrap_or("").to_string(),
+            list_count: None,
+        });
+    }
+    let count_ty = tokens.next().unwrap_or("");
+    let item_ty = tokens.next().unwrap_or("");
+    match (Ty::parse(count_ty), Ty::parse(item_ty)) {
+        (Some(c), Some(t)) if !matches!(c, Ty::F32 | Ty::F64) => Ok(Prop {
+            name: tokens.next().unwrap_or("").to_string(),
+            ty: t,
+            list_count: Some(c),
+        }),
+        _ => Err(format!(
+            "unknown list types '{} {}'",
+            shorten(count_ty),
+            shorten(item_ty)
+        )),
+    }
 }
 
 /// Reads the data values one at a time, in either encoding.
@@ -324,23 +335,7 @@ impl Data<'_> {
 /// Parses PLY bytes; `path` is only used in error messages.
 pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
     let header = read_header(bytes, path)?;
-    let ascii = header.format == Format::Ascii;
-    // Every count against the data that is there, before anything is read.
-    let available = (bytes.len() - header.data_start) as u64;
-    let mut needed: u64 = 0;
-    for e in &header.elements {
-        needed = needed.saturating_add(e.count.saturating_mul(e.min_record(ascii).max(1)));
-        if needed > available {
-            return Err(LoadError::at(
-                path,
-                e.line,
-                format!(
-                    "the header promises {} '{}' records, more than the {available} bytes of data can hold",
-                    e.count, e.name
-                ),
-            ));
-        }
-    }
+    check_counts(&header, bytes, path)?;
     let has = |name: &str| {
         header
             .elements
@@ -360,13 +355,52 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
         line: header.lines + 1,
         path,
     };
-    let mut mesh = MeshData::default();
-    let mut normals: Vec<Vec3> = Vec::new();
-    let mut colors: Vec<Vec3> = Vec::new();
-    let mut faces: Vec<(usize, Vec<u32>)> = Vec::new();
-    let mut values: Vec<f64> = Vec::new();
-    let mut list: Vec<f64> = Vec::new();
+    let mut body = Body::default();
     for e in &header.elements {
+        body.element(&mut data, e)?;
+    }
+    body.mesh(path, header.format == Format::Ascii)
+}
+
+/// Checks every element count of the header against the data that is
+/// there, before anything is read.
+fn check_counts(header: &Header, bytes: &[u8], path: &Path) -> Result<(), LoadError> {
+    let ascii = header.format == Format::Ascii;
+    let available = (bytes.len() - header.data_start) as u64;
+    let mut needed: u64 = 0;
+    for e in &header.elements {
+        needed = needed.saturating_add(e.count.saturating_mul(e.min_record(ascii).max(1)));
+        if needed > available {
+            return Err(LoadError::at(
+                path,
+                e.line,
+                format!(
+                    "the header promises {} '{}' records, more than the {available} bytes of data can hold",
+                    e.count, e.name
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Where the values this reader uses sit in an element's records.
+struct Layout {
+    xyz: [Option<usize>; 3],
+    nxyz: [Option<usize>; 3],
+    rgb: [Option<usize>; 3],
+    /// What an integer colour is divided by to run to 1.
+    colour_scale: f64,
+    is_vertex: bool,
+    is_face: bool,
+    /// The face's corner list.
+    corners_prop: Option<usize>,
+}
+
+impl Layout {
+    /// The layout of element `e`; an error when a vertex element has no
+    /// position or a face element no corner list.
+    fn of(e: &ElementHeader, path: &Path) -> Result<Layout, LoadError> {
         let find = |n: &str| {
             e.props
                 .iter()
@@ -401,90 +435,163 @@ pub fn parse(bytes: &[u8], path: &Path) -> Result<MeshData, LoadError> {
                 "the face element has no 'vertex_indices' list",
             ));
         }
+        Ok(Layout {
+            xyz,
+            nxyz,
+            rgb,
+            colour_scale,
+            is_vertex,
+            is_face,
+            corners_prop,
+        })
+    }
+}
+
+/// What the data section holds so far: vertices (with their normals and
+/// colours), and faces with the line they were read from, checked and
+/// triangulated at the end.
+#[derive(Default)]
+struct Body {
+    mesh: MeshData,
+    normals: Vec<Vec3>,
+    colors: Vec<Vec3>,
+    faces: Vec<(usize, Vec<u32>)>,
+    /// One record's scalar values (0 in a list's place).
+    values: Vec<f64>,
+    list: Vec<f64>,
+}
+
+impl Body {
+    /// Reads every record of element `e`, keeping vertices and faces.
+    fn element(&mut self, data: &mut Data, e: &ElementHeader) -> Result<(), LoadError> {
+        let layout = Layout::of(e, data.path)?;
         for _ in 0..e.count {
-            values.clear();
-            data.skip_space();
-            let record_line = data.line;
-            let mut corners = Vec::new();
-            for (k, p) in e.props.iter().enumerate() {
-                match p.list_count {
-                    None => values.push(data.value(p.ty)?),
-                    Some(count_ty) => {
-                        let n = data.value(count_ty)?;
-                        // A list length read from the data is checked too.
-                        let min = if ascii { 2 } else { p.ty.size() };
-                        if n < 0.0 || n * min as f64 > data.remaining() as f64 + 1.0 {
-                            return Err(data.error(format!(
-                                "a list of {n} values does not fit in the rest of the file"
-                            )));
-                        }
-                        list.clear();
-                        for _ in 0..n as usize {
-                            list.push(data.value(p.ty)?);
-                        }
-                        if Some(k) == corners_prop {
-                            corners = list.clone();
-                        }
-                        values.push(0.0);
+            let (record_line, corners) = self.record(data, e, layout.corners_prop)?;
+            if layout.is_vertex {
+                self.vertex(&layout);
+            } else if layout.is_face {
+                self.face(record_line, &corners);
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads one record into `values`; returns the line it starts on and
+    /// the values of its corner list (`corners_prop`), if it has one.
+    fn record(
+        &mut self,
+        data: &mut Data,
+        e: &ElementHeader,
+        corners_prop: Option<usize>,
+    ) -> Result<(usize, Vec<f64>), LoadError> {
+        let ascii = data.format == Format::Ascii;
+        self.values.clear();
+        data.skip_space();
+        let record_line = data.line;
+        let mut corners = Vec::new();
+        for (k, p) in e.props.iter().enumerate() {
+            match p.list_count {
+                None => self.values.push(data.value(p.ty)?),
+                Some(count_ty) => {
+                    let n = data.value(count_ty)?;
+                    // A list length read from the data is checked too.
+                    let min = if ascii { 2 } else { p.ty.size() };
+                    if n < 0.0 || n * min as f64 > data.remaining() as f64 + 1.0 {
+                        return Err(data.error(format!(
+                            "a list of {n} values does not fit in the rest of the file"
+                        )));
                     }
+                    self.list.clear();
+                    for _ in 0..n as usize {
+                        self.list.push(data.value(p.ty)?);
+                    }
+                    if Some(k) == corners_prop {
+                        corners = self.list.clone();
+                    }
+                    self.values.push(0.0);
                 }
             }
-            if is_vertex {
-                let get = |i: Option<usize>| i.map_or(0.0, |i| values[i]) as f32;
-                mesh.positions
-                    .push(Vec3::new(get(xyz[0]), get(xyz[1]), get(xyz[2])));
-                if nxyz.iter().all(Option::is_some) {
-                    normals.push(Vec3::new(get(nxyz[0]), get(nxyz[1]), get(nxyz[2])));
+        }
+        Ok((record_line, corners))
+    }
+
+    /// Keeps the vertex just read: position, and normal and colour when
+    /// the element has them.
+    fn vertex(&mut self, layout: &Layout) {
+        let values = &self.values;
+        let get = |i: Option<usize>| i.map_or(0.0, |i| values[i]) as f32;
+        let xyz = layout.xyz;
+        self.mesh
+            .positions
+            .push(Vec3::new(get(xyz[0]), get(xyz[1]), get(xyz[2])));
+        let nxyz = layout.nxyz;
+        if nxyz.iter().all(Option::is_some) {
+            self.normals
+                .push(Vec3::new(get(nxyz[0]), get(nxyz[1]), get(nxyz[2])));
+        }
+        if let [Some(r), Some(g), Some(b)] = layout.rgb {
+            let c = |i: usize| srgb_to_linear(values[i] / layout.colour_scale) as f32;
+            self.colors.push(Vec3::new(c(r), c(g), c(b)));
+        }
+    }
+
+    /// Keeps the face just read (read from line `record_line`), its
+    /// corners as vertex indices (`u32::MAX` for one that is none).
+    fn face(&mut self, record_line: usize, corners: &[f64]) {
+        let corners = corners
+            .iter()
+            .map(|&c| {
+                if c >= 0.0 && c <= u32::MAX as f64 {
+                    c as u32
+                } else {
+                    u32::MAX
                 }
-                if let [Some(r), Some(g), Some(b)] = rgb {
-                    let c = |i: usize| srgb_to_linear(values[i] / colour_scale) as f32;
-                    colors.push(Vec3::new(c(r), c(g), c(b)));
-                }
-            } else if is_face {
-                let corners = corners
-                    .iter()
-                    .map(|&c| {
-                        if c >= 0.0 && c <= u32::MAX as f64 {
-                            c as u32
-                        } else {
-                            u32::MAX
-                        }
-                    })
-                    .collect();
-                faces.push((record_line, corners));
+            })
+            .collect();
+        self.faces.push((record_line, corners));
+    }
+
+    /// The mesh: normals and colours when every vertex has one, the faces
+    /// checked against the vertex count and triangulated.
+    fn mesh(self, path: &Path, ascii: bool) -> Result<MeshData, LoadError> {
+        let Body {
+            mut mesh,
+            normals,
+            colors,
+            faces,
+            ..
+        } = self;
+        if normals.len() == mesh.positions.len() {
+            mesh.normals = Some(normals);
+        }
+        if !colors.is_empty() && colors.len() == mesh.positions.len() {
+            mesh.colors = Some(colors);
+        }
+        // Faces may come before vertices in the file: check them at the end.
+        let n = mesh.positions.len() as u64;
+        for (k, (line, corners)) in faces.iter().enumerate() {
+            if let Some(&bad) = corners.iter().find(|&&c| c as u64 >= n) {
+                let message = format!(
+                    "vertex index {bad} is out of range (the file has {n} vertices, numbered from 0)"
+                );
+                return Err(if ascii {
+                    LoadError::at(path, *line, message)
+                } else {
+                    LoadError::file(path, format!("face {}: {message}", k + 1))
+                });
             }
+            triangulate(&mesh.positions, corners, &mut mesh.triangles);
         }
-    }
-    if normals.len() == mesh.positions.len() {
-        mesh.normals = Some(normals);
-    }
-    if !colors.is_empty() && colors.len() == mesh.positions.len() {
-        mesh.colors = Some(colors);
-    }
-    // Faces may come before vertices in the file: check them at the end.
-    let n = mesh.positions.len() as u64;
-    for (k, (line, corners)) in faces.iter().enumerate() {
-        if let Some(&bad) = corners.iter().find(|&&c| c as u64 >= n) {
-            let message = format!(
-                "vertex index {bad} is out of range (the file has {n} vertices, numbered from 0)"
-            );
-            return Err(if ascii {
-                LoadError::at(path, *line, message)
-            } else {
-                LoadError::file(path, format!("face {}: {message}", k + 1))
-            });
+        if mesh.triangles.is_empty() {
+            return Err(LoadError::file(
+                path,
+                "the file has no faces with 3 or more corners",
+            ));
         }
-        triangulate(&mesh.positions, corners, &mut mesh.triangles);
+        super::check_finite(path, &mesh.positions)?;
+        super::sanitize_normals(&mut mesh);
+        Ok(mesh)
     }
-    if mesh.triangles.is_empty() {
-        return Err(LoadError::file(
-            path,
-            "the file has no faces with 3 or more corners",
-        ));
-    }
-    super::check_finite(path, &mesh.positions)?;
-    super::sanitize_normals(&mut mesh);
-    Ok(mesh)
 }
 
 #[cfg(test)]
