@@ -182,27 +182,23 @@ fn slurm_or_skip() -> bool {
 
 #[test]
 fn slurm_tiles_cancel_resume_and_missing_parts() {
-    if !slurm_or_skip() {
+    let Some(dir) = slurm_or_skip().then(setup) else {
         return;
-    }
-    let dir = setup();
+    };
     let d = dir.path();
 
     // 1. One scene, 8 tiles, through Slurm: the same bytes as one process.
-    let o = ok(arbor(
-        d,
-        &[
-            "farm",
-            "slurm",
-            "a.xml",
-            "--tiles",
-            "8",
-            "-o",
-            "out/a.png",
-            "--wait",
-        ],
-        &[],
-    ));
+    let tiles8 = [
+        "farm",
+        "slurm",
+        "a.xml",
+        "--tiles",
+        "8",
+        "-o",
+        "out/a.png",
+        "--wait",
+    ];
+    let o = ok(arbor(d, &tiles8, &[]));
     assert!(text(&o).contains("array 0-7"), "{}", text(&o));
     assert!(fs::read(d.join("out/a.png")).unwrap() == fs::read(d.join("a.png")).unwrap());
     let parts = d.join("out/a.png.parts");
@@ -246,21 +242,8 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
         "{}",
         text(&o)
     );
-    // The checkpoint: only tile 3 is rendered again.
-    let o = ok(arbor(
-        d,
-        &[
-            "farm",
-            "slurm",
-            "a.xml",
-            "--tiles",
-            "8",
-            "-o",
-            "out/a.png",
-            "--wait",
-        ],
-        &[],
-    ));
+    // The checkpoint: the same command renders only tile 3 again.
+    let o = ok(arbor(d, &tiles8, &[]));
     assert!(text(&o).contains("1 task, array 3 "), "{}", text(&o));
     assert!(fs::read(d.join("out/a.png")).unwrap() == fs::read(d.join("a.png")).unwrap());
 
@@ -315,10 +298,9 @@ fn slurm_tiles_cancel_resume_and_missing_parts() {
 /// checks).
 #[test]
 fn slurm_jobs_carry_the_cluster_options() {
-    if !slurm_or_skip() {
+    let Some(dir) = slurm_or_skip().then(setup) else {
         return;
-    }
-    let dir = setup();
+    };
     let d = dir.path();
     ok(arbor(
         d,
