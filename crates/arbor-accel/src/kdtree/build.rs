@@ -94,17 +94,21 @@ pub(super) fn push_events(out: &mut Vec<Event>, b: &Aabb, axis: usize, index: u3
     }
 }
 
-/// A node under construction: its region, its references (primitive and box
-/// clipped to the region) and, per axis, the sorted events of those boxes.
+/// References to primitives: each primitive's id with its box clipped to
+/// the region of the node that holds them.
+pub(super) type Refs = Vec<(u32, Aabb)>;
+
+/// A node under construction: its region, its references and, per axis,
+/// the sorted events of their boxes.
 pub(super) struct BuildNode {
     pub bounds: Aabb,
-    pub refs: Vec<(u32, Aabb)>,
+    pub refs: Refs,
     pub events: [Vec<Event>; 3],
 }
 
 impl BuildNode {
     /// The root: events of all references, sorted once.
-    pub fn root(bounds: Aabb, refs: Vec<(u32, Aabb)>) -> Self {
+    pub fn root(bounds: Aabb, refs: Refs) -> Self {
         assert!(
             refs.len() <= MAX_REFS,
             "the k-d tree indexes at most 2^30 primitives"
@@ -354,14 +358,13 @@ struct Partition {
 impl Partition {
     /// The partition of `refs` by `split` into the child regions
     /// `[below, above]`, with the children's references.
-    #[allow(clippy::type_complexity)]
     fn new<P: Primitives + ?Sized>(
         prims: &P,
         refs: &[(u32, Aabb)],
         split: &Split,
         [below_box, above_box]: [&Aabb; 2],
         parallel: bool,
-    ) -> (Partition, Vec<(u32, Aabb)>, Vec<(u32, Aabb)>) {
+    ) -> (Partition, Refs, Refs) {
         let n = refs.len();
         let sides: Vec<u8> = refs.iter().map(|(_, b)| side_of(b, split)).collect();
         let straddlers: Vec<usize> = (0..n).filter(|&i| sides[i] == BOTH).collect();
