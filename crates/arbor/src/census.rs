@@ -126,6 +126,8 @@ struct Def<'s> {
     has_leaves: bool,
     /// Longest nesting inside it, itself included.
     height: usize,
+    /// Longest chain of references inside it, itself included.
+    refs: usize,
     /// The definitions it places, once per reference, in document order.
     children: Vec<usize>,
     /// The definition holding the reference that first reached it (`None`:
@@ -271,6 +273,7 @@ impl<'s> Census<'s> {
             direct: 0,
             has_leaves: false,
             height: 0,
+            refs: 0,
             children: Vec::new(),
             parent: owner,
             local: path.to_vec(),
@@ -284,7 +287,14 @@ impl<'s> Census<'s> {
             &mut contents,
             order,
         )?;
+        let refs = 1 + contents
+            .children
+            .iter()
+            .map(|&c| self.defs[c].refs)
+            .max()
+            .unwrap_or(0);
         let def = &mut self.defs[d];
+        def.refs = refs;
         def.direct = contents.direct;
         def.has_leaves = contents.has_leaves;
         def.children = contents.children;
@@ -360,6 +370,22 @@ impl<'s> Census<'s> {
                 .ok_or_else(|| overflow(self, "primitives as placed", d))?;
         }
         Ok(())
+    }
+
+    /// The longest chain of references from the top level (a definition
+    /// placed inside a definition placed inside ...: the instance levels a
+    /// nested tracer enters), with the reference that starts it (where the
+    /// walk first reached its definition); `(0, None)` without references.
+    pub fn reference_depth(&self) -> (usize, Option<Location>) {
+        // Reversed: of equally deep chains, the first in document order.
+        let deepest = (self.top_children.iter().rev()).max_by_key(|&&d| self.defs[d].refs);
+        match deepest {
+            None => (0, None),
+            Some(&d) => {
+                let def = &self.defs[d];
+                (def.refs, Some(self.location(def.parent, &def.local)))
+            }
+        }
     }
 
     /// Calls `visit` with every leaf once, in document order (a shared

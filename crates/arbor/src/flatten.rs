@@ -58,7 +58,7 @@ impl FlatGeometry {
         Ok(flat)
     }
 
-    fn empty(variant: Variant) -> FlatGeometry {
+    pub(crate) fn empty(variant: Variant) -> FlatGeometry {
         FlatGeometry {
             variant,
             primitives: Vec::new(),
@@ -75,7 +75,7 @@ impl FlatGeometry {
     /// primitives whose bounds are not finite (NaN or infinite vertices,
     /// overflowing transforms): no exact test could hit them reliably and
     /// they would poison every box above them.
-    fn finish(&mut self) {
+    pub(crate) fn finish(&mut self) {
         let bounds: Vec<_> = (0..self.primitives.len())
             .into_par_iter()
             .map(|i| self.primitive_bounds(i))
@@ -116,7 +116,7 @@ impl FlatGeometry {
         Ok((self.transforms.len() - 1) as u32)
     }
 
-    fn add_leaf(&mut self, leaf: &Surface, m: DMat4) -> Result<(), SingularTransform> {
+    pub(crate) fn add_leaf(&mut self, leaf: &Surface, m: DMat4) -> Result<(), SingularTransform> {
         match leaf {
             Surface::Sphere(s) => {
                 let (transform, shader) = (self.transform_index(m)?, self.shader_index(&s.shader));
@@ -467,12 +467,12 @@ impl FlattenedScene {
     }
 }
 
-fn key(shared: &Arc<Surface>) -> usize {
+pub(crate) fn key(shared: &Arc<Surface>) -> usize {
     Arc::as_ptr(shared) as usize
 }
 
 /// Whether `s` holds leaves of its own (outside nested instances).
-fn has_direct_geometry(s: &Surface) -> bool {
+pub(crate) fn has_direct_geometry(s: &Surface) -> bool {
     match s {
         Surface::Group(g) => g.children.iter().any(has_direct_geometry),
         Surface::Instance(_) => false,
@@ -491,7 +491,7 @@ fn direct_instances<'s>(s: &'s Surface, out: &mut Vec<&'s Arc<Surface>>) {
 
 /// How many times each shared surface is placed in all (the number of paths
 /// from the roots to it), saturating.
-fn placement_counts(roots: &[Surface]) -> HashMap<usize, (u64, Arc<Surface>)> {
+pub(crate) fn placement_counts(roots: &[Surface]) -> HashMap<usize, (u64, Arc<Surface>)> {
     // Topological order of the DAG of shared surfaces (parents first).
     fn visit(s: &Arc<Surface>, seen: &mut HashMap<usize, ()>, order: &mut Vec<Arc<Surface>>) {
         if seen.insert(key(s), ()).is_some() {
@@ -599,7 +599,7 @@ impl Builder {
     }
 }
 
-fn add_direct_leaves(
+pub(crate) fn add_direct_leaves(
     flat: &mut FlatGeometry,
     s: &Surface,
     m: DMat4,

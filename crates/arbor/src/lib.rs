@@ -38,6 +38,7 @@ pub mod heatmap;
 pub mod light;
 pub mod limits;
 pub mod load;
+pub mod nested;
 pub mod partial;
 pub mod ray;
 pub mod render;

@@ -51,7 +51,9 @@ use glam::{DAffine3, DVec3};
 use rayon::prelude::*;
 
 use crate::flatten::{to_f32_box, FlatGeometry, FlattenedScene, Hit, Placement};
+use crate::nested::NestedTracer;
 use crate::ray::Ray;
+use crate::scene::Variant;
 use crate::surface::Candidate;
 
 /// Relative size of the box pad, see the module documentation.
@@ -82,13 +84,13 @@ impl SplitCounters for RayCounts {
 /// The coordinate frame of one level: its padded `f64` bounds, for turning
 /// `f64` rays into conservative `f32` ones.
 #[derive(Clone, Copy, Debug)]
-struct Frame {
-    bounds: Option<(DVec3, DVec3)>,
+pub(crate) struct Frame {
+    pub(crate) bounds: Option<(DVec3, DVec3)>,
     pad: f64,
 }
 
 impl Frame {
-    fn new(boxes: &[(DVec3, DVec3)]) -> Frame {
+    pub(crate) fn new(boxes: &[(DVec3, DVec3)]) -> Frame {
         let (lo, hi) = boxes.iter().fold(
             (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |(lo, hi), (a, b)| (lo.min(*a), hi.max(*b)),
@@ -107,7 +109,7 @@ impl Frame {
         }
     }
 
-    fn boxes(&self, boxes: &[(DVec3, DVec3)]) -> Vec<arbor_accel::Aabb> {
+    pub(crate) fn boxes(&self, boxes: &[(DVec3, DVec3)]) -> Vec<arbor_accel::Aabb> {
         boxes
             .par_iter()
             .map(|(a, b)| to_f32_box(*a, *b, self.pad))
@@ -117,7 +119,7 @@ impl Frame {
     /// The `f32` ray for traversal, starting where the `f64` ray enters the
     /// padded bounds, and that entry parameter `t0`; `None` when the ray
     /// misses them.
-    fn f32_ray(&self, ray: &Ray) -> Option<(TraversalRay, f64)> {
+    pub(crate) fn f32_ray(&self, ray: &Ray) -> Option<(TraversalRay, f64)> {
         let (lo, hi) = self.bounds?;
         let (o, d, tmin, tmax) = (ray.origin, ray.direction, ray.tmin, ray.tmax);
         let t0 = if tmin >= 0.0 && o.cmpge(lo).all() && o.cmple(hi).all() {
@@ -166,14 +168,14 @@ fn beats(t: f64, prim: u32, best: Option<(u32, f64)>) -> bool {
 }
 
 /// One level: geometry in one space with its acceleration structure.
-struct Level {
-    scene: FlatGeometry,
-    accel: Accel,
-    frame: Frame,
+pub(crate) struct Level {
+    pub(crate) scene: FlatGeometry,
+    pub(crate) accel: Accel,
+    pub(crate) frame: Frame,
 }
 
 impl Level {
-    fn new(scene: FlatGeometry, kind: AccelKind) -> Level {
+    pub(crate) fn new(scene: FlatGeometry, kind: AccelKind) -> Level {
         let boxes: Vec<_> = (0..scene.len()).map(|i| scene.bounds(i)).collect();
         let frame = Frame::new(&boxes);
         let accel = Accel::build(kind, &frame.boxes(&boxes));
@@ -186,7 +188,7 @@ impl Level {
 
     /// The nearest primitive hit in `(tmin, tmax)`, offering only candidates
     /// up to `cull` (a known hit elsewhere); `cull >= tmax` offers all.
-    fn closest<C: Counters>(
+    pub(crate) fn closest<C: Counters>(
         &self,
         ray: &Ray,
         cull: f64,
@@ -207,7 +209,7 @@ impl Level {
         best
     }
 
-    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+    pub(crate) fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
         let Some((ray32, _)) = self.frame.f32_ray(ray) else {
             return false;
         };
@@ -366,6 +368,9 @@ pub struct Tracer {
     /// when there are none.
     volumes: Vec<Option<FittedVolume>>,
     volume_stats: VolumeStats,
+    /// Nested levels ([`Tracer::from_nested`]): when present, every query
+    /// goes there and the two flat levels above are empty.
+    nested: Option<Box<NestedTracer>>,
 }
 
 impl Tracer {
@@ -469,7 +474,32 @@ impl Tracer {
             kind,
             volumes: Vec::new(),
             volume_stats: VolumeStats::default(),
+            nested: None,
         }
+    }
+
+    /// A tracer over the nested levels `nested` (built with structures of
+    /// `kind` for a scene of `variant`): the same queries with the same
+    /// answers as the flat tracer of the same scene; its flat levels
+    /// ([`Tracer::scene`], [`Tracer::accel`], placements) are empty.
+    pub fn from_nested(nested: NestedTracer, kind: AccelKind, variant: Variant) -> Tracer {
+        let frame = Frame::new(&[]);
+        Tracer {
+            world: FlatGeometry::empty(variant),
+            shared: Vec::new(),
+            placements: Vec::new(),
+            top: Accel::build(kind, &frame.boxes(&[])),
+            frame,
+            kind,
+            volumes: Vec::new(),
+            volume_stats: VolumeStats::default(),
+            nested: Some(Box::new(nested)),
+        }
+    }
+
+    /// The nested levels, when built so ([`Tracer::from_nested`]).
+    pub fn nested(&self) -> Option<&NestedTracer> {
+        self.nested.as_deref()
     }
 
     /// The world-space primitives.
@@ -500,7 +530,8 @@ impl Tracer {
 
     /// Bytes of all acceleration structures (both levels).
     pub fn accel_memory_bytes(&self) -> usize {
-        self.top.stats().memory_bytes
+        self.nested.as_ref().map_or(0, |n| n.accel_memory_bytes())
+            + self.top.stats().memory_bytes
             + self
                 .shared
                 .iter()
@@ -519,16 +550,28 @@ impl Tracer {
         ray: &Ray,
         counters: &mut C,
     ) -> Option<Hit<'_>> {
+        if let Some(nested) = &self.nested {
+            return nested.closest_counted(ray, counters);
+        }
         let (_, found) = self.nearest(ray, counters)?;
         Some(self.hit_record(ray, found))
     }
 
-    /// [`Tracer::closest_counted`], also naming the primitive hit.
+    /// [`Tracer::closest_counted`], also naming the primitive hit (over
+    /// nested levels, which have no flat numbering, the primitive is
+    /// `u32::MAX`).
     pub fn closest_identified<C: SplitCounters>(
         &self,
         ray: &Ray,
         counters: &mut C,
     ) -> Option<(HitId, Hit<'_>)> {
+        if let Some(nested) = &self.nested {
+            let unnamed = HitId {
+                primitive: u32::MAX,
+                shared: None,
+            };
+            return nested.closest_counted(ray, counters).map(|h| (unnamed, h));
+        }
         let (top, found) = self.nearest(ray, counters)?;
         let id = HitId {
             primitive: top,
@@ -591,25 +634,13 @@ impl Tracer {
                 candidate,
             } => {
                 let p = &self.placements[placement as usize];
-                let local = self.shared[p.geometry as usize].scene.hit(
-                    prim as usize,
-                    &local_ray(p, ray),
+                placed_hit(
+                    p,
+                    &self.shared[p.geometry as usize].scene,
+                    prim,
+                    ray,
                     candidate,
-                );
-                Hit {
-                    t: candidate.t,
-                    point: ray.at(candidate.t),
-                    normal: p.normal_to_world(local.normal),
-                    uv: local.uv,
-                    color: local.color,
-                    // Geometry space to world: the inverse of the placement's.
-                    shadow_offset: if local.shadow_offset == DVec3::ZERO {
-                        DVec3::ZERO
-                    } else {
-                        p.inverse.matrix3.inverse() * local.shadow_offset
-                    },
-                    shader: local.shader,
-                }
+                )
             }
         }
     }
@@ -621,6 +652,9 @@ impl Tracer {
 
     /// [`Tracer::occluded`], counting traversal work into `counters`.
     pub fn occluded_counted<C: SplitCounters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        if let Some(nested) = &self.nested {
+            return nested.occluded_counted(ray, counters);
+        }
         let Some((ray32, _)) = self.frame.f32_ray(ray) else {
             return false;
         };
@@ -639,9 +673,36 @@ impl Tracer {
     }
 }
 
+/// The world-space hit record of primitive `prim` of `scene` (the geometry
+/// `p` places) hit by the world `ray` at `candidate`; shared by the flat and
+/// the nested tracer so that both shade a hit the same way.
+pub(crate) fn placed_hit<'a>(
+    p: &Placement,
+    scene: &'a FlatGeometry,
+    prim: u32,
+    ray: &Ray,
+    candidate: Candidate,
+) -> Hit<'a> {
+    let local = scene.hit(prim as usize, &local_ray(p, ray), candidate);
+    Hit {
+        t: candidate.t,
+        point: ray.at(candidate.t),
+        normal: p.normal_to_world(local.normal),
+        uv: local.uv,
+        color: local.color,
+        // Geometry space to world: the inverse of the placement's.
+        shadow_offset: if local.shadow_offset == DVec3::ZERO {
+            DVec3::ZERO
+        } else {
+            p.inverse.matrix3.inverse() * local.shadow_offset
+        },
+        shader: local.shader,
+    }
+}
+
 /// `ray` in the space of the geometry `p` places: transformed once, not
 /// renormalised, so `t` names the same point in both spaces.
-fn local_ray(p: &Placement, ray: &Ray) -> Ray {
+pub(crate) fn local_ray(p: &Placement, ray: &Ray) -> Ray {
     ray.with_line(
         p.inverse.transform_point3(ray.origin),
         p.inverse.transform_vector3(ray.direction),
@@ -649,7 +710,7 @@ fn local_ray(p: &Placement, ray: &Ray) -> Ray {
 }
 
 /// The world box of a local box under `m`: the box of its 8 transformed corners.
-fn world_box(m: &DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn world_box(m: &DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
     let mut a = DVec3::splat(f64::INFINITY);
     let mut b = DVec3::splat(f64::NEG_INFINITY);
     for i in 0..8 {
@@ -668,7 +729,7 @@ fn world_box(m: &DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
 /// `t` rounded up to `f32` and one step more, so that rounding in the
 /// subtraction that produced it can never make culling reject a box holding
 /// a hit at exactly `t`.
-fn cull_distance(t: f64) -> f32 {
+pub(crate) fn cull_distance(t: f64) -> f32 {
     if t == f64::INFINITY {
         return f32::INFINITY;
     }

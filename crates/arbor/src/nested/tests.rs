@@ -1,0 +1,242 @@
+//! The nested tracer against the flat one on random rays through random
+//! small DAGs: the same hits, bit for bit.
+
+use std::sync::Arc;
+
+use glam::{DMat4, DQuat, DVec3, Vec3};
+
+use super::*;
+use crate::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
+use crate::load::default_shader;
+use crate::load::MeshData;
+use crate::scene::Scene;
+use crate::surface::{Group, MeshSurface, Sphere, Surface};
+use crate::tracer::{Tracer, TracerOptions};
+use arbor_accel::AccelKind;
+
+/// SplitMix64 as a fixed sequence of numbers in [0, 1).
+fn sequence(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        (z ^ (z >> 31)) as f64 / 2f64.powi(64)
+    }
+}
+
+fn mesh(random: &mut impl FnMut() -> f64) -> Surface {
+    let mut p = || Vec3::new(random() as f32, random() as f32, random() as f32) - 0.5;
+    Surface::Mesh(MeshSurface {
+        data: Arc::new(MeshData {
+            positions: vec![p(), p(), p(), p()],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            ..MeshData::default()
+        }),
+        shader: default_shader(),
+        two_sided: true,
+        soft_terminator: false,
+    })
+}
+
+/// A rotation, a non-uniform scale and a translation, as one group matrix.
+fn placement(random: &mut impl FnMut() -> f64, spread: f64) -> DMat4 {
+    let axis = DVec3::new(random() - 0.5, random() - 0.5, random() - 0.5 + 1e-3).normalize();
+    let scale = DVec3::new(0.7 + random(), 0.7 + random(), 0.7 + random());
+    let at = (DVec3::new(random(), random(), random()) - 0.5) * spread;
+    DMat4::from_scale_rotation_translation(scale, DQuat::from_axis_angle(axis, 6.0 * random()), at)
+}
+
+/// A DAG of `levels` levels: each level places the one below 3 or 4 times,
+/// under one or two nested groups, beside some geometry of its own.
+fn dag(seed: u64, levels: usize) -> Scene {
+    let mut random = sequence(seed);
+    let mut below = Arc::new(mesh(&mut random));
+    for level in 1..=levels {
+        let spread = 1.5 * level as f64;
+        let mut children: Vec<Surface> = (0..3 + (random() * 2.0) as usize)
+            .map(|_| {
+                let inner = Surface::Group(Group {
+                    transform: placement(&mut random, 1.0),
+                    children: vec![Surface::Instance(below.clone())],
+                });
+                Surface::Group(Group {
+                    transform: placement(&mut random, spread),
+                    children: vec![inner],
+                })
+            })
+            .collect();
+        if level % 2 == 0 {
+            children.push(mesh(&mut random));
+            children.push(Surface::Sphere(Sphere {
+                center: DVec3::new(random(), random(), random()),
+                radius: 0.2,
+                shader: default_shader(),
+            }));
+        }
+        below = Arc::new(Surface::Group(Group {
+            transform: placement(&mut random, 1.0),
+            children,
+        }));
+    }
+    let mut scene = crate::default_scene::classroom();
+    scene.surfaces = vec![
+        Surface::Group(Group {
+            transform: placement(&mut random, 2.0),
+            children: vec![Surface::Instance(below.clone())],
+        }),
+        Surface::Instance(below),
+        mesh(&mut random),
+    ];
+    scene
+}
+
+fn flat(scene: &Scene) -> Tracer {
+    let flat = FlattenedScene::new(scene, DEFAULT_MAX_PLACEMENTS).unwrap();
+    Tracer::build(flat, &TracerOptions::default())
+}
+
+/// Flat and nested hits on `ray`: the same `t`, point and normal, bit
+/// for bit, and the same occlusion; whether it hit.
+fn same_answers(flat: &Tracer, nested: &NestedTracer, ray: &Ray, what: &str) -> bool {
+    let a = flat.closest(ray);
+    let b = nested.closest(ray);
+    assert_eq!(a.is_some(), b.is_some(), "{what}");
+    if let (Some(a), Some(b)) = (a, b) {
+        assert_eq!(a.t.to_bits(), b.t.to_bits(), "{what}");
+        assert_eq!(a.point, b.point, "{what}");
+        assert_eq!(a.normal, b.normal, "{what}");
+        assert_eq!(a.shadow_offset, b.shadow_offset, "{what}");
+        assert!(std::ptr::eq(a.shader, b.shader), "{what}");
+    }
+    assert_eq!(flat.occluded(ray), nested.occluded(ray), "{what}");
+    a.is_some()
+}
+
+/// Property: on random small DAGs (rotations and non-uniform scales at
+/// every level, geometry beside references), nested closest and occluded
+/// equal flat on random rays, for nested throughout, partly flattened and
+/// wholly flattened levels, with the default structure and brute force.
+#[test]
+fn nested_answers_bit_for_bit_as_flat_on_random_dags() {
+    let mut hits = 0;
+    for seed in 0..6u64 {
+        let scene = dag(seed, 2 + (seed % 3) as usize);
+        let flat = flat(&scene);
+        for (kind, flatten_at_most) in [
+            (TracerOptions::default().accel, 1),
+            (AccelKind::List, 1),
+            (TracerOptions::default().accel, 5),
+            (AccelKind::BvhSah, u64::MAX),
+        ] {
+            let nested = build(&scene, kind, flatten_at_most).unwrap();
+            let mut random = sequence(seed + 100);
+            let span = 8.0;
+            for k in 0..1000 {
+                let o = (DVec3::new(random(), random(), random()) - 0.5) * 2.0 * span;
+                let aim = (DVec3::new(random(), random(), random()) - 0.5) * 3.0;
+                let (tmin, tmax) = if k % 3 == 0 {
+                    (1e-6, 0.7)
+                } else {
+                    (0.0, f64::INFINITY)
+                };
+                let ray = Ray::new(o, aim - o, tmin, tmax);
+                let what = format!("seed {seed} {kind} {flatten_at_most} ray {k}");
+                hits += usize::from(same_answers(&flat, &nested, &ray, &what));
+            }
+        }
+    }
+    assert!(hits > 5000, "{hits} hits");
+}
+
+/// Coincident copies (the same definition placed twice at the same spot,
+/// under different chains): every hit is a tie between placements, and
+/// the nested tracer picks the one the flat tracer picks (the first
+/// placed), whose shader differs.
+#[test]
+fn ties_between_placements_go_as_flat() {
+    let mut random = sequence(3);
+    let shader = |r: f64| {
+        Arc::new(crate::shader::Shader::Lambertian {
+            diffuse: DVec3::splat(r),
+            texture: None,
+        })
+    };
+    let Surface::Mesh(one) = mesh(&mut random) else {
+        unreachable!()
+    };
+    // The same triangles under two shaders.
+    let quad = |shader| {
+        let mut m = one.clone();
+        m.shader = shader;
+        Arc::new(Surface::Mesh(m))
+    };
+    let (a, b) = (quad(shader(0.2)), quad(shader(0.8)));
+    let pair = |first: &Arc<Surface>, second: &Arc<Surface>| {
+        Arc::new(Surface::Group(Group {
+            transform: DMat4::IDENTITY,
+            children: vec![
+                Surface::Instance(first.clone()),
+                Surface::Instance(second.clone()),
+                Surface::Instance(first.clone()),
+            ],
+        }))
+    };
+    let (ab, ba) = (pair(&a, &b), pair(&b, &a));
+    // First placed: `b`; last: `a` (a search keeping the last tie fails).
+    let mut scene = crate::default_scene::classroom();
+    scene.surfaces = vec![
+        Surface::Instance(ba.clone()),
+        Surface::Instance(ab.clone()),
+        Surface::Instance(ab),
+    ];
+    // (`ba` placed once is inlined: its copies of `b` come first.)
+    let flat = flat(&scene);
+    let nested = build(&scene, TracerOptions::default().accel, 1).unwrap();
+    let mut hits = 0;
+    for k in 0..500 {
+        let o = DVec3::new(random() - 0.5, random() - 0.5, 3.0);
+        let ray = Ray::new(o, DVec3::new(0.0, 0.0, -1.0), 0.0, f64::INFINITY);
+        hits += usize::from(same_answers(&flat, &nested, &ray, &format!("ray {k}")));
+    }
+    assert!(hits > 20, "{hits} hits");
+}
+
+#[test]
+fn each_definition_is_built_once() {
+    // Four levels of 3-4 placements each: the flat tracer makes hundreds of
+    // placements, the nested one the world plus one per level.
+    let scene = dag(7, 4);
+    let nested = build(&scene, TracerOptions::default().accel, 1).unwrap();
+    assert_eq!(nested.definitions(), 1 + 5);
+    assert_eq!(nested.depth(), 5);
+    assert!(flat(&scene).placements() > 100);
+}
+
+#[test]
+fn nesting_deeper_than_the_limit_is_refused() {
+    let chain = |levels: usize| {
+        let mut below = Arc::new(mesh(&mut sequence(1)));
+        for _ in 1..levels {
+            below = Arc::new(Surface::Group(Group {
+                transform: DMat4::IDENTITY,
+                children: vec![Surface::Instance(below.clone()), Surface::Instance(below)],
+            }));
+        }
+        let mut scene = crate::default_scene::classroom();
+        scene.surfaces = vec![mesh(&mut sequence(2)), Surface::Instance(below)];
+        scene
+    };
+    let kind = TracerOptions::default().accel;
+    assert_eq!(
+        build(&chain(MAX_NESTING), kind, 1).unwrap().depth(),
+        MAX_NESTING
+    );
+    let e = build(&chain(MAX_NESTING + 1), kind, 1).err().unwrap();
+    assert!(matches!(e, NestError::TooDeep { depth: 33, .. }), "{e:?}");
+    assert_eq!(
+        e.to_string(),
+        "top-level surface 2 (ref): references nest 33 deep from here; nested instancing follows at most 32"
+    );
+}
