@@ -70,5 +70,6 @@ def render(
     height: int | None = None,
     samples: int | None = None,
     accel: str | None = None,
+    instancing: str | None = None,
 ) -> npt.NDArray[np.float32]: ...
 def write_image(path: Union[str, PathLike[str]], image: npt.ArrayLike) -> None: ...

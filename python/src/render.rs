@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
+use arbor::nested::Instancing;
 use arbor::render::{render_file, RenderFileError, RenderOptions, RenderedFile};
 use arbor_accel::AccelKind;
 use numpy::PyArray3;
@@ -27,7 +28,8 @@ const SIGNAL_POLL: Duration = Duration::from_millis(20);
 /// The pipeline and defaults are ``arbor render``'s: ``width`` and
 /// ``height`` are its ``--size`` (the horizontal view kept; with one of
 /// them given, the other follows the file's aspect ratio), ``samples`` its
-/// ``--spp`` (rounded to a square grid), ``accel`` its ``--accel``, so the
+/// ``--spp`` (rounded to a square grid), ``accel`` its ``--accel``,
+/// ``instancing`` its ``--instancing`` (``"flat"``, ``"nested"``, ``"auto"``), so the
 /// array holds exactly the values ``arbor render -o image.exr`` writes.
 /// Runs on all cores with the GIL released; Ctrl-C stops it
 /// (KeyboardInterrupt). The loader's warnings become UserWarnings.
@@ -35,7 +37,7 @@ const SIGNAL_POLL: Duration = Duration::from_millis(20);
 /// Raises OSError naming the file when it is missing or broken, and
 /// ValueError for an option out of range.
 #[pyfunction]
-#[pyo3(signature = (scene_or_model_path, width = None, height = None, samples = None, accel = None))]
+#[pyo3(signature = (scene_or_model_path, width = None, height = None, samples = None, accel = None, instancing = None))]
 pub fn render<'py>(
     py: Python<'py>,
     scene_or_model_path: PathBuf,
@@ -43,12 +45,17 @@ pub fn render<'py>(
     height: Option<i64>,
     samples: Option<i64>,
     accel: Option<&str>,
+    instancing: Option<&str>,
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    let instancing = instancing
+        .map_or(Ok(Instancing::Auto), str::parse)
+        .map_err(|e: String| PyValueError::new_err(format!("instancing: {e}")))?;
     let options = RenderOptions {
         width: whole(width, "width")?,
         height: whole(height, "height")?,
         samples: whole(samples, "samples")?,
         accel: accel.map_or(Ok(AccelKind::DEFAULT), accel_kind)?,
+        instancing,
         ..RenderOptions::default()
     };
     let rendered = run_interruptibly(py, &scene_or_model_path, &options)?;
@@ -95,9 +102,9 @@ fn run_interruptibly(
     })?;
     result.map_err(|e| match e {
         RenderFileError::Option(_) => PyValueError::new_err(e.to_string()),
-        RenderFileError::Load(_) | RenderFileError::Flatten { .. } => {
-            PyOSError::new_err(e.to_string())
-        }
+        RenderFileError::Load(_)
+        | RenderFileError::Flatten { .. }
+        | RenderFileError::Nest { .. } => PyOSError::new_err(e.to_string()),
         RenderFileError::Cancelled => PyRuntimeError::new_err(e.to_string()),
     })
 }

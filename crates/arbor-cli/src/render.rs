@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use arbor::film::ImageFormat;
 use arbor::flatten::{FlattenError, FlattenedScene, DEFAULT_MAX_PLACEMENTS};
+use arbor::nested::{Instancing, Plan};
 use arbor::render::{Region, RenderOptions};
 use arbor::scene::Scene;
 use arbor::tracer::Tracer;
@@ -50,9 +51,15 @@ pub struct RenderArgs {
     /// no file at all.
     #[arg(long)]
     pub partial: bool,
-    /// Most placements of shared (instanced) surfaces to accept.
+    /// Most placements of shared (instanced) surfaces to accept (flat
+    /// instancing only).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_MAX_PLACEMENTS)]
     pub max_instances: u64,
+    /// How references are traced: `flat` (one placement per copy), `nested`
+    /// (each shared definition its own level, built once) or `auto` (flat
+    /// unless copies multiply; docs/acceleration.md). The same picture.
+    #[arg(long, value_name = "flat|nested|auto", default_value_t = Instancing::Auto)]
+    pub instancing: Instancing,
     /// Also write the traversal cost of each pixel's camera rays (nodes
     /// visited plus primitive tests) as a false-colour PNG with a colour bar.
     #[arg(long, value_name = "FILE.png")]
@@ -98,7 +105,7 @@ fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let job = prepare(args)?;
     let loaded = start.elapsed();
-    let built = build(&render_options(args), &job.scene)?;
+    let built = build(&render_options(args), &job.scene, args.scene.as_deref())?;
     let (film, ray_stats, rendered) = trace_image(args, &job, &built.tracer)?;
     let heatmap = write_outputs(args, &job, &built.tracer, film)?;
     if !args.quiet {
@@ -207,14 +214,15 @@ fn render_options(args: &RenderArgs) -> RenderOptions {
         },
         max_placements: args.max_instances,
         bounding_volume: args.bvol,
+        instancing: args.instancing,
     }
 }
 
 /// The tracer and what building it took.
 struct Built {
     tracer: Tracer,
-    unique: u64,
-    instanced: u64,
+    unique: u128,
+    instanced: u128,
     took: std::time::Duration,
 }
 
@@ -230,17 +238,46 @@ pub(crate) fn flatten(scene: &Scene, options: &RenderOptions) -> anyhow::Result<
     })
 }
 
-/// Flattens the scene and builds the acceleration structure.
-fn build(options: &RenderOptions, scene: &Scene) -> anyhow::Result<Built> {
-    let flat = flatten(scene, options)?;
+/// Flattens the scene and builds the acceleration structure, or builds it
+/// into nested levels, as the options' instancing plans it (errors of
+/// nesting name the file `path`).
+fn build(options: &RenderOptions, scene: &Scene, path: Option<&Path>) -> anyhow::Result<Built> {
+    let flat = match arbor::render::plan(scene, options) {
+        Plan::Flat => flatten(scene, options)?,
+        Plan::Nested { flatten_at_most } => {
+            return build_nested(options, scene, path, flatten_at_most)
+        }
+    };
     let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
     let start = Instant::now();
     let tracer = arbor::render::build_tracer(flat, options);
     Ok(Built {
         tracer,
-        unique,
-        instanced,
+        unique: unique.into(),
+        instanced: instanced.into(),
         took: start.elapsed(),
+    })
+}
+
+/// [`build`] for a nested plan: the counts are the census's.
+fn build_nested(
+    options: &RenderOptions,
+    scene: &Scene,
+    path: Option<&Path>,
+    flatten_at_most: u64,
+) -> anyhow::Result<Built> {
+    let name = path.map_or_else(|| "the default scene".into(), |p| p.display().to_string());
+    let start = Instant::now();
+    let tracer = arbor::render::build_nested(scene, options, flatten_at_most)
+        .map_err(|e| InputError(format!("{name}: {e}")))?;
+    let took = start.elapsed();
+    let census = arbor::census::Census::new(&scene.surfaces, scene.variant)
+        .map_err(|e| InputError(format!("{name}: {e}")))?;
+    Ok(Built {
+        tracer,
+        unique: census.unique_primitives,
+        instanced: census.placed_primitives,
+        took,
     })
 }
 
@@ -358,6 +395,21 @@ fn write_outputs(
 /// The `--stats` lines about the scene's primitives and structures.
 fn print_build_stats(args: &RenderArgs, built: &Built) {
     let tracer = &built.tracer;
+    if let Some(nested) = tracer.nested() {
+        eprintln!(
+            "primitives: {} unique, {} as placed",
+            built.unique, built.instanced
+        );
+        eprintln!(
+            "accel {}: nested, {} definitions built once, {} child placements, {} instance levels; all levels {} bytes",
+            tracer.kind(),
+            nested.definitions(),
+            nested.children(),
+            nested.depth(),
+            tracer.accel_memory_bytes()
+        );
+        return;
+    }
     let s = arbor_accel::Accelerator::stats(tracer.accel());
     eprintln!(
         "primitives: {} unique, {} of shared geometry, {} as placed",

@@ -50,7 +50,7 @@ mod instancing;
 mod tests;
 
 pub use build::build;
-pub use instancing::{Instancing, Plan, AUTO_FLATTEN_AT_MOST};
+pub use instancing::{Instancing, Plan, AUTO_FLAT_AT_MOST};
 
 use arbor_accel::{Accel, Accelerator, NoCounters};
 use glam::{DAffine3, DMat4};

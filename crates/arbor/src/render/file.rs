@@ -15,6 +15,7 @@ use crate::film::Film;
 use crate::flatten::{FlattenError, FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use crate::limits::{MAX_IMAGE_PIXELS, MAX_IMAGE_SIDE, MAX_SAMPLES};
 use crate::load::{LoadError, ModelOptions};
+use crate::nested::{Instancing, NestError, Plan};
 use crate::scene::LoadedScene;
 use crate::scene::{Scene, Variant};
 use crate::tracer::{BoundingVolumeKind, Tracer, TracerOptions};
@@ -38,6 +39,8 @@ pub struct RenderOptions {
     pub max_placements: u64,
     /// A bounding volume around each top-level object (`--bvol`).
     pub bounding_volume: Option<BoundingVolumeKind>,
+    /// How references are traced (`--instancing`); `--bvol` is flat.
+    pub instancing: Instancing,
 }
 
 impl Default for RenderOptions {
@@ -50,6 +53,7 @@ impl Default for RenderOptions {
             model: ModelOptions::default(),
             max_placements: DEFAULT_MAX_PLACEMENTS,
             bounding_volume: None,
+            instancing: Instancing::Auto,
         }
     }
 }
@@ -93,6 +97,14 @@ pub enum RenderFileError {
         /// Why.
         source: FlattenError,
     },
+    /// The scene cannot be built into nested levels (`--instancing`).
+    #[error("{}: {source}", path.display())]
+    Nest {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: NestError,
+    },
     /// `cancel` was set before the render finished.
     #[error("the render was cancelled")]
     Cancelled,
@@ -109,11 +121,16 @@ pub fn render_file(
 ) -> Result<RenderedFile, RenderFileError> {
     let loaded = load(path, options)?;
     let scene = loaded.scene;
-    let flat = flatten(&scene, options).map_err(|source| RenderFileError::Flatten {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let tracer = build_tracer(flat, options);
+    let path = path.to_path_buf();
+    let tracer = match plan(&scene, options) {
+        Plan::Flat => {
+            let flat = flatten(&scene, options)
+                .map_err(|source| RenderFileError::Flatten { path, source })?;
+            build_tracer(flat, options)
+        }
+        Plan::Nested { flatten_at_most } => build_nested(&scene, options, flatten_at_most)
+            .map_err(|source| RenderFileError::Nest { path, source })?,
+    };
     let film =
         super::render(&scene, &tracer, &|_| {}, cancel).map_err(|_| RenderFileError::Cancelled)?;
     Ok(RenderedFile {
@@ -145,6 +162,28 @@ pub fn flatten(scene: &Scene, options: &RenderOptions) -> Result<FlattenedScene,
 /// The third step: the tracer the options ask for over `flat`.
 pub fn build_tracer(flat: FlattenedScene, options: &RenderOptions) -> Tracer {
     Tracer::build(flat, &options.tracer())
+}
+
+/// How the options' instancing traces `scene`: flat (then [`flatten`] and
+/// [`build_tracer`]) or nested ([`build_nested`]); always flat with
+/// bounding volumes, which wrap the flat objects.
+pub fn plan(scene: &Scene, options: &RenderOptions) -> Plan {
+    match options.bounding_volume {
+        Some(_) => Plan::Flat,
+        None => options.instancing.plan(scene),
+    }
+}
+
+/// The second and third steps for a nested plan: `scene` built into
+/// nested levels of the options' structure (no placement limit: memory
+/// follows the definitions).
+pub fn build_nested(
+    scene: &Scene,
+    options: &RenderOptions,
+    flatten_at_most: u64,
+) -> Result<Tracer, NestError> {
+    let nested = crate::nested::build(scene, options.accel, flatten_at_most)?;
+    Ok(Tracer::from_nested(nested, options.accel, scene.variant))
 }
 
 /// Whether `n` pixels is a possible image side (what the scene reader accepts).

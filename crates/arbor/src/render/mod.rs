@@ -20,8 +20,8 @@ mod file;
 mod shade;
 
 pub use file::{
-    apply_samples_and_size, build_tracer, flatten, load, render_file, valid_pixels, valid_samples,
-    valid_side, RenderFileError, RenderOptions, RenderedFile,
+    apply_samples_and_size, build_nested, build_tracer, flatten, load, plan, render_file,
+    valid_pixels, valid_samples, valid_side, RenderFileError, RenderOptions, RenderedFile,
 };
 pub use shade::Integrator;
 

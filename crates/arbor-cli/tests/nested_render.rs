@@ -1,0 +1,246 @@
+//! `arbor render --instancing flat|nested|auto` (issue 42): the nested
+//! tracer writes the very bytes of the flat one; `auto` keeps small scenes
+//! flat; scenes only nesting can render do render; bad input is an input
+//! error naming the file and the element, with no picture written.
+
+use std::fs;
+use std::path::Path;
+use std::process::{Command, Output};
+
+mod support;
+use support::arbor_in as arbor;
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A small mesh: a fan of `n` triangles around the origin, tilted so no
+/// face is edge-on to the camera.
+fn msh(n: usize) -> String {
+    let mut v = vec![0.0, 0.0, 0.0];
+    for k in 0..=n {
+        let a = k as f64 / n as f64 * 5.0;
+        v.extend([a.cos(), a.sin(), 0.3 * a.sin()]);
+    }
+    let t: Vec<String> = (0..n)
+        .flat_map(|k| [0, k + 1, k + 2])
+        .map(|i| i.to_string())
+        .collect();
+    let v: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
+    format!(
+        "{}\n{n}\nvertices\n{}\ntriangles\n{}\n",
+        n + 2,
+        v.join("\n"),
+        t.join("\n")
+    )
+}
+
+/// Three levels of references with rotations and non-uniform scales at
+/// each, geometry beside the references at the inner levels, placed twice
+/// at the top beside a sphere; every level places its child 3 or 4 times.
+fn transformed_scene() -> String {
+    let place = |child: &str, i: usize, spread: f64| {
+        format!(
+            r#"<surface type="Group"><translate>{} {} {}</translate><rotate>{} {} {}</rotate><scale>{} {} {}</scale><surface ref="{child}"/></surface>"#,
+            spread * (i as f64 - 1.5),
+            0.3 * i as f64 - 0.4,
+            -spread * 0.4 * i as f64,
+            17 * i + 5,
+            31 * i,
+            -23 * i as i64 + 11,
+            0.6 + 0.15 * i as f64,
+            1.1 - 0.1 * i as f64,
+            0.8 + 0.05 * i as f64,
+        )
+    };
+    let level = |name: &str, child: &str, copies: usize, spread: f64, extra: &str| {
+        let parts: String = (0..copies).map(|i| place(child, i, spread)).collect();
+        format!(
+            r#"<surface type="Group" name="{name}"><rotate>0 10 0</rotate>{parts}{extra}</surface>"#
+        )
+    };
+    let ball = r#"<surface type="Sphere"><center>0.2 0.5 0</center><radius>0.3</radius><shader ref="red"/></surface>"#;
+    let defs = [
+        r#"<surface type="Mesh" name="l0"><shader ref="grey"/><data>m.msh</data></surface>"#
+            .to_string(),
+        level("l1", "l0", 3, 2.0, ball),
+        level("l2", "l1", 4, 5.0, ""),
+        level("l3", "l2", 3, 12.0, ball),
+    ]
+    .concat();
+    format!(
+        r#"<scene>
+<camera><viewPoint>0 6 30</viewPoint><viewDir>0 -0.2 -1</viewDir><projDistance>1</projDistance><viewWidth>1.2</viewWidth><viewHeight>0.9</viewHeight></camera>
+<image>64 48</image>
+<shader name="grey" type="Phong"><diffuseColor>0.7 0.7 0.7</diffuseColor><specularColor>0.3 0.3 0.3</specularColor><exponent>30</exponent></shader>
+<shader name="red" type="Lambertian"><diffuseColor>0.8 0.2 0.1</diffuseColor></shader>
+<light><position>10 20 30</position><intensity>1 1 1</intensity></light>
+<defs>{defs}</defs>
+<surface type="Group"><rotate>0 -20 5</rotate><scale>1 1.3 0.9</scale><surface ref="l3"/></surface>
+<surface type="Group"><translate>4 -3 -10</translate><rotate>10 40 0</rotate><surface ref="l3"/></surface>
+<surface type="Sphere"><center>0 -1 5</center><radius>1</radius><shader ref="grey"/></surface>
+</scene>
+"#
+    )
+}
+
+/// A temporary folder holding `s.xml` and `m.msh`.
+fn case(scene: &str) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("s.xml"), scene).unwrap();
+    fs::write(dir.path().join("m.msh"), msh(12)).unwrap();
+    dir
+}
+
+/// Renders `s.xml` in `dir` to `out` with `extra` flags; the PNG's bytes.
+fn render(dir: &Path, scene: &str, out: &str, extra: &[&str]) -> Vec<u8> {
+    let mut args = vec!["render", scene, "-o", out, "--quiet"];
+    args.extend(extra);
+    let o = arbor(dir, &args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    fs::read(dir.join(out)).unwrap()
+}
+
+/// Flat, nested and auto pictures of `scene` in `dir`, checked identical
+/// and not blank.
+fn assert_all_identical(dir: &Path, scene: &str, extra: &[&str]) {
+    let with = |mode: &'static str| [extra, &["--instancing", mode]].concat();
+    let flat = render(dir, scene, "flat.png", &with("flat"));
+    let nested = render(dir, scene, "nested.png", &with("nested"));
+    let auto = render(dir, scene, "auto.png", &with("auto"));
+    assert!(flat == nested, "{scene}: flat and nested differ");
+    assert!(flat == auto, "{scene}: flat and auto differ");
+    let picture = image::load_from_memory(&flat).unwrap().to_rgb8();
+    let first = picture.get_pixel(0, 0);
+    assert!(picture.pixels().any(|p| p != first), "{scene}: blank");
+}
+
+#[test]
+fn flat_and_nested_write_the_same_bytes_through_rotations_and_scales() {
+    let dir = case(&transformed_scene());
+    assert_all_identical(dir.path(), "s.xml", &[]);
+    // Every accelerator at every level, and more samples.
+    for accel in ["list", "bvh-sah", "grid", "kdtree"] {
+        assert_all_identical(dir.path(), "s.xml", &["--accel", accel, "--spp", "4"]);
+    }
+}
+
+/// The issue's deep field at L = 2 and 3 (10^4 and 10^6 bunnies), smaller.
+#[test]
+fn the_deep_field_is_the_same_flat_and_nested() {
+    let Some(mesh) = arbor_test_data::test_b("bunny10k.msh") else {
+        return;
+    };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = tempfile::tempdir().unwrap();
+    for levels in ["2", "3"] {
+        let status = Command::new("python3")
+            .arg(root.join("scripts/deep_field.py"))
+            .args([levels, "-o", "deep.xml", "--mesh"])
+            .arg(&mesh)
+            .current_dir(dir.path())
+            .status()
+            .expect("python3");
+        assert!(status.success());
+        assert_all_identical(dir.path(), "deep.xml", &["--size", "96x72"]);
+    }
+}
+
+/// `deep_scene`: `levels` levels of `per_level` translated references to
+/// the mesh, the top level placed once.
+fn deep_scene(levels: usize, per_level: usize) -> String {
+    let mut defs =
+        String::from(r#"<surface type="Mesh" name="level0"><data>m.msh</data></surface>"#);
+    for k in 1..=levels {
+        defs += &format!(r#"<surface type="Group" name="level{k}">"#);
+        for i in 0..per_level {
+            defs += &format!(
+                r#"<surface type="Group"><translate>{} 0 {}</translate><surface ref="level{}"/></surface>"#,
+                (i % 10) as f64 * 2.5 * 10f64.powi(k as i32 - 1),
+                (i / 10) as f64 * 2.5 * 10f64.powi(k as i32 - 1),
+                k - 1
+            );
+        }
+        defs += "</surface>\n";
+    }
+    format!(
+        r#"<scene><camera><viewPoint>-3 2 -3</viewPoint><viewDir>1 -0.2 1</viewDir><projDistance>1</projDistance></camera>
+<image>32 24</image><light><position>3 40 -30</position><intensity>1 1 1</intensity></light><light><position>3 40 30</position><intensity>1 1 1</intensity></light>
+<defs>{defs}</defs><surface ref="level{levels}"/></scene>
+"#
+    )
+}
+
+#[test]
+fn nine_levels_of_a_hundred_render_by_default_and_flat_refuses() {
+    let dir = case(&deep_scene(9, 100));
+    let o = arbor(
+        dir.path(),
+        &["render", "s.xml", "-o", "flat.png", "--instancing", "flat"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the limit is 4194304"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path().join("flat.png").exists());
+    let picture = render(dir.path(), "s.xml", "deep.png", &["--stats"]);
+    let picture = image::load_from_memory(&picture).unwrap().to_rgb8();
+    let first = picture.get_pixel(0, 0);
+    assert!(picture.pixels().any(|p| p != first), "blank");
+}
+
+/// Runs `arbor render s.xml -o out.png` with `extra` and checks it fails as
+/// an input error naming the file and `message`, writing nothing.
+fn assert_render_refuses(dir: &Path, extra: &[&str], message: &str) {
+    let mut args = vec!["render", "s.xml", "-o", "out.png"];
+    args.extend(extra);
+    let o = arbor(dir, &args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("s.xml") && err.contains(message), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!dir.join("out.png").exists());
+}
+
+#[test]
+fn nesting_deeper_than_the_limit_is_an_input_error_naming_the_element() {
+    // 32 levels of two over the mesh (33 references deep): too deep for
+    // nested instancing (32), too many copies for flat (2^32): auto nests,
+    // and refuses.
+    let dir = case(&deep_scene(32, 2));
+    let message =
+        "s.xml: top-level surface 1 (ref): references nest 33 deep from here; nested instancing follows at most 32";
+    assert_render_refuses(dir.path(), &[], message);
+    assert_render_refuses(dir.path(), &["--instancing", "nested"], message);
+    // At the limit it renders.
+    let dir = case(&deep_scene(31, 2));
+    render(dir.path(), "s.xml", "ok.png", &["--instancing", "nested"]);
+}
+
+#[test]
+fn a_reference_cycle_is_an_input_error() {
+    let scene =
+        deep_scene(2, 2).replace(r#"<surface ref="level0"/>"#, r#"<surface ref="level2"/>"#);
+    let dir = case(&scene);
+    for mode in ["flat", "nested", "auto"] {
+        assert_render_refuses(
+            dir.path(),
+            &["--instancing", mode],
+            "definitions form a cycle",
+        );
+    }
+}
+
+#[test]
+fn an_unknown_instancing_is_a_usage_error() {
+    let dir = case(&deep_scene(1, 2));
+    let o = arbor(dir.path(), &["render", "s.xml", "--instancing", "deep"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("expected flat, nested or auto"),
+        "{}",
+        stderr(&o)
+    );
+}
