@@ -137,6 +137,39 @@ def test_write_image_errors_name_the_file_and_leave_nothing(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["folder.png"] and not any(folder.iterdir())
 
 
+# References two levels deep: a ball placed three times inside a group
+# that is placed three times (rotated and scaled), nine balls in all.
+NESTED = """<scene>
+  <camera type="PerspectiveCamera">
+    <viewPoint>0 2 9</viewPoint><viewDir>0 -2 -9</viewDir><viewUp>0 1 0</viewUp>
+    <projDistance>4</projDistance><viewWidth>4</viewWidth><viewHeight>3</viewHeight>
+  </camera>
+  <image>32 24</image>
+  <surface type="Sphere" name="ball"><center>0 0 0</center><radius>0.4</radius></surface>
+  <surface type="Group" name="row">
+    <surface type="Group"><translate>-1 0 0</translate><surface ref="ball"/></surface>
+    <surface type="Group"><translate>0 0 0</translate><surface ref="ball"/></surface>
+    <surface type="Group"><translate>1 0 0</translate><surface ref="ball"/></surface>
+  </surface>
+  <surface type="Group"><translate>0 1 0</translate><rotate>0 0 10</rotate><surface ref="row"/></surface>
+  <surface type="Group"><surface ref="row"/></surface>
+  <surface type="Group"><translate>0 -1 0</translate><scale>1 0.5 1</scale><surface ref="row"/></surface>
+  <light><position>3 4 5</position><intensity>20 20 20</intensity></light>
+</scene>
+"""
+
+
+def test_every_instancing_gives_the_same_picture(tmp_path):
+    path = tmp_path / "nested.xml"
+    path.write_text(NESTED)
+    flat = arbor.render(path, instancing="flat")
+    assert flat.max() > 0.05  # a picture, not black
+    for mode in ["nested", "auto"]:
+        np.testing.assert_array_equal(arbor.render(path, instancing=mode), flat)
+    with pytest.raises(ValueError, match="instancing: "):
+        arbor.render(path, instancing="deep")
+
+
 def test_render_errors(tmp_path, scene):
     missing = tmp_path / "missing.xml"
     with pytest.raises(OSError, match=f"{missing}: "):

@@ -12,3 +12,8 @@ pub const MAX_SAMPLES: i64 = 1 << 16;
 pub const MAX_NESTING: usize = 1_000;
 /// Default limit on placements of shared geometry.
 pub const DEFAULT_MAX_PLACEMENTS: u64 = 1 << 22;
+/// The most instance levels (references inside references) the nested
+/// tracer follows: each is one frame of a ray's traversal. Deeper scenes
+/// are refused when building (a hundred copies per level, 32 levels are
+/// 10^64 copies: far more than any picture needs).
+pub const MAX_INSTANCE_LEVELS: usize = 32;

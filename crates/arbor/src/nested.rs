@@ -16,7 +16,7 @@
 //! A ray entering a child placement continues in the child's structure,
 //! level after level: the instance frames of a ray (each level's world
 //! matrix and its inverse) live on the call stack of the traversal, at most
-//! [`MAX_NESTING`] deep (checked when building). The closest hit so far
+//! [`MAX_INSTANCE_LEVELS`] deep (checked when building). The closest hit so far
 //! culls every level.
 //!
 //! ## Exactness
@@ -61,11 +61,7 @@ use crate::ray::Ray;
 use crate::surface::Candidate;
 use crate::tracer::{cull_distance, local_ray, placed_hit, Frame, Level, SplitCounters};
 
-/// The most instance levels (references inside references) the nested
-/// tracer follows: each is one frame of a ray's traversal. Deeper scenes
-/// are refused when building (a hundred copies per level, 32 levels are
-/// 10^64 copies: far more than any picture needs).
-pub const MAX_NESTING: usize = 32;
+pub use crate::limits::MAX_INSTANCE_LEVELS;
 
 /// Why a scene could not be built into nested levels.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -73,7 +69,7 @@ pub enum NestError {
     /// The scene graph is malformed (a cycle, a singular group transform,
     /// counts beyond 128 bits), with the element.
     Census(CensusError),
-    /// References nest deeper than [`MAX_NESTING`].
+    /// References nest deeper than [`MAX_INSTANCE_LEVELS`].
     TooDeep {
         /// The chain's depth.
         depth: usize,
@@ -90,7 +86,7 @@ impl std::fmt::Display for NestError {
             NestError::Census(e) => e.fmt(f),
             NestError::TooDeep { depth, at } => write!(
                 f,
-                "{at}: references nest {depth} deep from here; nested instancing follows at most {MAX_NESTING}"
+                "{at}: references nest {depth} deep from here; nested instancing follows at most {MAX_INSTANCE_LEVELS}"
             ),
             NestError::SingularTransform => {
                 f.write_str("the scene has a transform that cannot be inverted (a zero scale)")
@@ -112,13 +108,13 @@ impl From<SingularTransform> for NestError {
 /// a level is its own geometry, placed before its children).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Path {
-    items: [u32; MAX_NESTING + 1],
+    items: [u32; MAX_INSTANCE_LEVELS + 1],
     len: u8,
 }
 
 impl Path {
     const EMPTY: Path = Path {
-        items: [0; MAX_NESTING + 1],
+        items: [0; MAX_INSTANCE_LEVELS + 1],
         len: 0,
     };
 

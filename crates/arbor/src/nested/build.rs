@@ -6,7 +6,7 @@ use std::sync::Arc;
 use arbor_accel::{Accel, AccelKind};
 use glam::{DAffine3, DMat4, DVec3};
 
-use super::{Child, Definition, NestError, NestedTracer, MAX_NESTING};
+use super::{Child, Definition, NestError, NestedTracer, MAX_INSTANCE_LEVELS};
 use crate::census::Census;
 use crate::flatten::{self, FlatGeometry};
 use crate::hash_map::HashMap;
@@ -24,7 +24,7 @@ use crate::tracer::{world_box, Frame, Level};
 ///
 /// The scene is first counted ([`Census`]): a cycle, a singular group
 /// transform or a count beyond 128 bits is an error naming the element, as
-/// is a chain of references deeper than [`MAX_NESTING`].
+/// is a chain of references deeper than [`MAX_INSTANCE_LEVELS`].
 pub fn build(
     scene: &Scene,
     kind: AccelKind,
@@ -32,7 +32,7 @@ pub fn build(
 ) -> Result<NestedTracer, NestError> {
     let census = Census::new(&scene.surfaces, scene.variant).map_err(NestError::Census)?;
     let (depth, at) = census.reference_depth();
-    if depth > MAX_NESTING {
+    if depth > MAX_INSTANCE_LEVELS {
         let at = at.expect("a chain of references starts somewhere");
         return Err(NestError::TooDeep { depth, at });
     }

@@ -230,10 +230,12 @@ fn nesting_deeper_than_the_limit_is_refused() {
     };
     let kind = TracerOptions::default().accel;
     assert_eq!(
-        build(&chain(MAX_NESTING), kind, 1).unwrap().depth(),
-        MAX_NESTING
+        build(&chain(MAX_INSTANCE_LEVELS), kind, 1).unwrap().depth(),
+        MAX_INSTANCE_LEVELS
     );
-    let e = build(&chain(MAX_NESTING + 1), kind, 1).err().unwrap();
+    let e = build(&chain(MAX_INSTANCE_LEVELS + 1), kind, 1)
+        .err()
+        .unwrap();
     assert!(matches!(e, NestError::TooDeep { depth: 33, .. }), "{e:?}");
     assert_eq!(
         e.to_string(),
