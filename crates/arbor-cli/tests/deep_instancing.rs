@@ -42,19 +42,7 @@ fn msh(n: usize) -> String {
 /// levels, each `per_level` translated references to the one below; the top
 /// level is placed once.
 fn deep_scene(levels: usize, per_level: usize) -> String {
-    let mut defs =
-        String::from(r#"<surface type="Mesh" name="level0"><data>m.msh</data></surface>"#);
-    for k in 1..=levels {
-        defs += &format!(r#"<surface type="Group" name="level{k}">"#);
-        for i in 0..per_level {
-            defs += &format!(
-                r#"<surface type="Group"><translate>{} 0 0</translate><surface ref="level{}"/></surface>"#,
-                i * 2,
-                k - 1
-            );
-        }
-        defs += "</surface>\n";
-    }
+    let defs = support::deep_defs(levels, per_level, |_, i| ((i * 2) as f64, 0.0));
     format!(
         r#"<scene><camera type="PerspectiveCamera"><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>1</projDistance></camera>
 <image>16 12</image><light type="PointLight"><position>3 4 5</position></light>

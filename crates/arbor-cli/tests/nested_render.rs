@@ -149,20 +149,11 @@ fn the_deep_field_is_the_same_flat_and_nested() {
 /// `deep_scene`: `levels` levels of `per_level` translated references to
 /// the mesh, the top level placed once.
 fn deep_scene(levels: usize, per_level: usize) -> String {
-    let mut defs =
-        String::from(r#"<surface type="Mesh" name="level0"><data>m.msh</data></surface>"#);
-    for k in 1..=levels {
-        defs += &format!(r#"<surface type="Group" name="level{k}">"#);
-        for i in 0..per_level {
-            defs += &format!(
-                r#"<surface type="Group"><translate>{} 0 {}</translate><surface ref="level{}"/></surface>"#,
-                (i % 10) as f64 * 2.5 * 10f64.powi(k as i32 - 1),
-                (i / 10) as f64 * 2.5 * 10f64.powi(k as i32 - 1),
-                k - 1
-            );
-        }
-        defs += "</surface>\n";
-    }
+    // Reference `i` of level `k` on a 10-wide grid, spaced 2.5 * 10^(k-1).
+    let defs = support::deep_defs(levels, per_level, |k, i| {
+        let spacing = 2.5 * 10f64.powi(k as i32 - 1);
+        ((i % 10) as f64 * spacing, (i / 10) as f64 * spacing)
+    });
     format!(
         r#"<scene><camera><viewPoint>-3 2 -3</viewPoint><viewDir>1 -0.2 1</viewDir><projDistance>1</projDistance></camera>
 <image>32 24</image><light><position>3 40 -30</position><intensity>1 1 1</intensity></light><light><position>3 40 30</position><intensity>1 1 1</intensity></light>

@@ -67,3 +67,27 @@ pub fn folder_with(name: &str, contents: &str) -> tempfile::TempDir {
     std::fs::write(dir.path().join(name), contents).unwrap();
     dir
 }
+
+/// The `<defs>` of a deep instancing scene: mesh `m.msh` as `level0`, then
+/// `levels` levels, each `per_level` references to the level below,
+/// translated by `offset(k, i)` (x and z of reference `i` in level `k`).
+pub fn deep_defs(
+    levels: usize,
+    per_level: usize,
+    offset: fn(usize, usize) -> (f64, f64),
+) -> String {
+    let mut defs =
+        String::from(r#"<surface type="Mesh" name="level0"><data>m.msh</data></surface>"#);
+    for k in 1..=levels {
+        defs += &format!(r#"<surface type="Group" name="level{k}">"#);
+        for i in 0..per_level {
+            let (x, z) = offset(k, i);
+            defs += &format!(
+                r#"<surface type="Group"><translate>{x} 0 {z}</translate><surface ref="level{}"/></surface>"#,
+                k - 1
+            );
+        }
+        defs += "</surface>\n";
+    }
+    defs
+}
