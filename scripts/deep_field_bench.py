@@ -5,9 +5,14 @@ each --instancing mode and L, as a Markdown table; flat is skipped past its
 placement limit. Checks that every mode writes the same bytes.
 
   deep_field_bench.py [--arbor PATH] [--levels 1-9] [--modes flat,nested,auto]
+                      [--plot FILE.svg]
+
+--plot also draws the table: time and peak memory against L, one line per
+mode, memory on a log scale (flat's grows 100-fold a level, nested's not).
 """
 import argparse
 import filecmp
+import math
 import os
 import re
 import subprocess
@@ -32,12 +37,56 @@ def run(arbor, scene, out, mode):
     return seconds, kb / 1024
 
 
+COLOURS = {"flat": "#c0392b", "nested": "#2471a3", "auto": "#229954"}
+
+
+def svg_plot(rows, modes, path):
+    """Writes an SVG of `rows` ({L: {mode: (seconds, MiB)}}): two panels
+    against L, wall time (linear from 0) and peak memory (log 10)."""
+    levels = sorted(rows)
+    w, h, pad = 360, 240, 48
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{2 * w}" height="{h}" '
+           'font-family="sans-serif" font-size="11">',
+           f'<rect width="{2 * w}" height="{h}" fill="white"/>']
+    for k, (title, log) in enumerate([("wall time (s)", False), ("peak memory (MiB, log scale)", True)]):
+        x0 = k * w
+        vals = [rows[L][m][k] for L in levels for m in modes if m in rows[L]]
+        lo, hi = (min(vals) / 1.5, max(vals) * 1.5) if log else (0.0, max(vals) * 1.1)
+        scale = math.log10 if log else (lambda v: v)
+
+        def px(L, v):
+            x = x0 + pad + (L - levels[0]) / max(1, levels[-1] - levels[0]) * (w - 2 * pad)
+            y = h - pad - (scale(v) - scale(lo)) / (scale(hi) - scale(lo)) * (h - 2 * pad)
+            return x, y
+
+        out.append(f'<text x="{x0 + w / 2}" y="16" text-anchor="middle">{title}</text>')
+        out.append(f'<path d="M{x0 + pad},{pad} V{h - pad} H{x0 + w - pad}" fill="none" stroke="black"/>')
+        for L in levels:
+            out.append(f'<text x="{px(L, lo)[0]:.1f}" y="{h - pad + 14}" text-anchor="middle">{L}</text>')
+        out.append(f'<text x="{x0 + w / 2}" y="{h - 12}" text-anchor="middle">L (10^2L bunnies)</text>')
+        ticks = [lo, math.sqrt(lo * hi), hi] if log else [lo, hi / 2, hi]
+        for v in ticks:
+            out.append(f'<text x="{x0 + pad - 4}" y="{px(levels[0], v)[1] + 4:.1f}" text-anchor="end">{v:.3g}</text>')
+        for i, m in enumerate(modes):
+            pts = [px(L, rows[L][m][k]) for L in levels if m in rows[L]]
+            colour = COLOURS.get(m, "black")
+            if pts:
+                line = " ".join(f"{x:.1f},{y:.1f}" for x, y in pts)
+                out.append(f'<polyline points="{line}" fill="none" stroke="{colour}" stroke-width="2"/>')
+            out.append(f'<text x="{x0 + w - pad - 40}" y="{pad + 14 * i}" fill="{colour}">{m}</text>')
+    out.append("</svg>")
+    with open(path, "w") as f:
+        f.write("\n".join(out) + "\n")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--arbor", default=os.path.join(HERE, "..", "target", "release", "arbor"))
     ap.add_argument("--levels", default="1-9")
     ap.add_argument("--modes", default="flat,nested,auto")
+    ap.add_argument("--plot", help="also draw the table as this SVG file")
     a = ap.parse_args()
+    rows = {}
     lo, _, hi = a.levels.partition("-")
     levels = range(int(lo), int(hi or lo) + 1)
     modes = a.modes.split(",")
@@ -57,9 +106,12 @@ def main():
                 else:
                     cells.append(f"{r[0]:.2f} | {r[1]:.0f}")
                     pictures.append(out)
+                    rows.setdefault(L, {})[m] = r
             same = all(filecmp.cmp(pictures[0], p, shallow=False) for p in pictures[1:])
             print(f"| {L} | 10^{2 * L} | " + " | ".join(cells) + f" | {'yes' if same else 'NO'} |",
                   flush=True)
+    if a.plot:
+        svg_plot(rows, modes, a.plot)
 
 
 if __name__ == "__main__":

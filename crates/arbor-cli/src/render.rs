@@ -584,7 +584,8 @@ fn check_heatmap_path(path: &Path) -> Result<(), InputError> {
     }
 }
 
-/// The `--stats` lines about rays: count, nodes and tests per ray by kind.
+/// The `--stats` lines about rays: count, nodes, tests and instance levels
+/// entered per ray, by kind.
 fn print_ray_stats(
     stats: &RenderStats,
     heatmap: Option<&(arbor::heatmap::CostMap, std::time::Duration)>,
@@ -592,20 +593,22 @@ fn print_ray_stats(
     for kind in RayKind::ALL {
         let k = stats.kind(kind);
         eprintln!(
-            "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray",
+            "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray  {:>6.2} levels/ray",
             kind.name(),
             k.rays,
             k.nodes_per_ray(),
-            k.tests_per_ray()
+            k.tests_per_ray(),
+            k.levels_per_ray()
         );
     }
     let t = stats.total();
     eprintln!(
-        "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray",
+        "rays {:<10} {:>12}  {:>7.2} nodes/ray  {:>7.2} tests/ray  {:>6.2} levels/ray",
         "all",
         t.rays,
         t.nodes_per_ray(),
-        t.tests_per_ray()
+        t.tests_per_ray(),
+        t.levels_per_ray()
     );
     if let Some((map, took)) = heatmap {
         eprintln!(

@@ -235,3 +235,39 @@ fn an_unknown_instancing_is_a_usage_error() {
         stderr(&o)
     );
 }
+
+/// `--stats`' instance levels entered per camera ray, from its
+/// `rays camera ... levels/ray` line.
+fn camera_levels_per_ray(dir: &Path, extra: &[&str]) -> f64 {
+    let mut args = vec!["render", "s.xml", "-o", "out.png", "--stats"];
+    args.extend(extra);
+    let o = arbor(dir, &args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    let err = stderr(&o);
+    let line = err
+        .lines()
+        .find(|l| l.starts_with("rays camera"))
+        .unwrap_or_else(|| panic!("no camera line: {err}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let at = words.iter().position(|w| *w == "levels/ray").expect(line);
+    words[at - 1].parse().expect(line)
+}
+
+#[test]
+fn stats_count_the_instance_levels_a_ray_enters() {
+    let dir = case(&transformed_scene());
+    // Three levels of references: a camera ray that meets the field goes
+    // through several of them, nested; flat enters one placement at most
+    // per copy it meets.
+    let nested = camera_levels_per_ray(dir.path(), &["--instancing", "nested"]);
+    let flat = camera_levels_per_ray(dir.path(), &["--instancing", "flat"]);
+    assert!(nested > 1.0, "nested: {nested}");
+    assert!(flat > 0.0 && flat < nested, "flat {flat}, nested {nested}");
+    // Nothing placed by reference: no level is ever entered.
+    let plain = case(
+        r#"<scene><camera><viewPoint>0 0 5</viewPoint><viewDir>0 0 -1</viewDir><projDistance>1</projDistance></camera>
+<image>16 12</image><light><position>3 4 5</position><intensity>1 1 1</intensity></light>
+<surface type="Sphere"><center>0 0 0</center><radius>1</radius></surface></scene>"#,
+    );
+    assert_eq!(camera_levels_per_ray(plain.path(), &[]), 0.0);
+}

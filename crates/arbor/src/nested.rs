@@ -323,6 +323,7 @@ impl NestedTracer {
             } else {
                 let child = &def.children[(item - first_child) as usize];
                 if let Some(inside) = frame.enter(child) {
+                    inner.enter_level();
                     if child.geometry_only {
                         let local = inside.local(search.ray);
                         self.closest_geometry(
@@ -400,6 +401,7 @@ impl NestedTracer {
             let Some(inside) = frame.enter(child) else {
                 return false;
             };
+            inner.enter_level();
             if child.geometry_only {
                 self.occluded_geometry(child.definition, &inside.local(ray), &mut inner)
             } else {

@@ -7,7 +7,7 @@
 //! hot loop). [`RenderStats`] counts rays by kind and the traversal work
 //! (nodes visited, primitive tests) they caused.
 
-use arbor_accel::{NoCounters, RayCounts};
+use arbor_accel::{Counters, NoCounters, RayCounts};
 
 use crate::tracer::SplitCounters;
 
@@ -70,6 +70,39 @@ impl RayStats for NoStats {
     fn merge(&mut self, _: Self) {}
 }
 
+/// The traversal work of one ray: nodes and tests as arbor-accel counts
+/// them, and the instance levels it entered (one per placement entered,
+/// at any depth).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayWork {
+    /// Nodes visited and primitives tested, every level.
+    pub counts: RayCounts,
+    /// Placements entered.
+    pub levels: u64,
+}
+
+impl Counters for RayWork {
+    #[inline(always)]
+    fn node(&mut self) {
+        self.counts.node();
+    }
+    #[inline(always)]
+    fn test(&mut self) {
+        self.counts.test();
+    }
+}
+
+impl SplitCounters for RayWork {
+    fn merge(&mut self, other: Self) {
+        self.counts += other.counts;
+        self.levels += other.levels;
+    }
+    #[inline(always)]
+    fn enter_level(&mut self) {
+        self.levels += 1;
+    }
+}
+
 /// Rays and traversal work of one kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct KindStats {
@@ -79,6 +112,8 @@ pub struct KindStats {
     pub nodes: u64,
     /// Exact primitive tests, both levels.
     pub tests: u64,
+    /// Placements entered (instance levels, at any depth).
+    pub levels: u64,
 }
 
 impl KindStats {
@@ -90,6 +125,11 @@ impl KindStats {
     /// Primitive tests per ray (0 without rays).
     pub fn tests_per_ray(&self) -> f64 {
         per(self.tests, self.rays)
+    }
+
+    /// Placements (instance levels) entered per ray (0 without rays).
+    pub fn levels_per_ray(&self) -> f64 {
+        per(self.levels, self.rays)
     }
 }
 
@@ -121,18 +161,20 @@ impl RenderStats {
                 rays: a.rays + k.rays,
                 nodes: a.nodes + k.nodes,
                 tests: a.tests + k.tests,
+                levels: a.levels + k.levels,
             })
     }
 }
 
 impl RayStats for RenderStats {
-    type Counters = RayCounts;
+    type Counters = RayWork;
     #[inline]
-    fn record(&mut self, kind: RayKind, counts: RayCounts) {
+    fn record(&mut self, kind: RayKind, work: RayWork) {
         let k = &mut self.kinds[kind.index()];
         k.rays += 1;
-        k.nodes += counts.nodes;
-        k.tests += counts.tests;
+        k.nodes += work.counts.nodes;
+        k.tests += work.counts.tests;
+        k.levels += work.levels;
     }
 
     fn merge(&mut self, other: Self) {
@@ -140,6 +182,7 @@ impl RayStats for RenderStats {
             a.rays += b.rays;
             a.nodes += b.nodes;
             a.tests += b.tests;
+            a.levels += b.levels;
         }
     }
 }
@@ -148,26 +191,37 @@ impl RayStats for RenderStats {
 mod tests {
     use super::*;
 
+    /// One ray's work: `nodes`, `tests` and `levels` instance levels.
+    fn work(nodes: u64, tests: u64, levels: u64) -> RayWork {
+        RayWork {
+            counts: RayCounts { nodes, tests },
+            levels,
+        }
+    }
+
     #[test]
     fn records_and_merges_by_kind() {
         let mut a = RenderStats::default();
-        a.record(RayKind::Camera, RayCounts { nodes: 4, tests: 2 });
-        a.record(RayKind::Camera, RayCounts { nodes: 2, tests: 0 });
+        a.record(RayKind::Camera, work(4, 2, 1));
+        a.record(RayKind::Camera, work(2, 0, 2));
         let mut b = RenderStats::default();
-        b.record(RayKind::Shadow, RayCounts { nodes: 3, tests: 1 });
+        b.record(RayKind::Shadow, work(3, 1, 0));
         a.merge(b);
         assert_eq!(
             a.kind(RayKind::Camera),
             KindStats {
                 rays: 2,
                 nodes: 6,
-                tests: 2
+                tests: 2,
+                levels: 3,
             }
         );
+        assert_eq!(a.kind(RayKind::Camera).levels_per_ray(), 1.5);
         assert_eq!(a.kind(RayKind::Camera).nodes_per_ray(), 3.0);
         assert_eq!(a.kind(RayKind::Shadow).rays, 1);
         assert_eq!(a.kind(RayKind::Refraction).nodes_per_ray(), 0.0);
         assert_eq!(a.total().rays, 3);
+        assert_eq!(a.total().levels, 3);
     }
 }
 

@@ -68,6 +68,10 @@ pub trait SplitCounters: Counters + Default {
     /// ([`crate::traversal::TraversalRecord`]), which keep levels apart.
     #[inline(always)]
     fn enter_placement(&mut self, _placement: u32) {}
+    /// The ray entered a placement: one instance level deeper (counted by
+    /// `--stats`, [`crate::stats::RayWork`]).
+    #[inline(always)]
+    fn enter_level(&mut self) {}
 }
 
 impl SplitCounters for NoCounters {
@@ -607,6 +611,7 @@ impl Tracer {
                 let cull = best_so_far.map_or(ray.tmax, |(_, t)| t);
                 let level = &self.shared[p.geometry as usize];
                 inner.enter_placement(placement);
+                inner.enter_level();
                 let (local, candidate) = level.closest(&local_ray(p, ray), cull, &mut inner)?;
                 Found::Shared {
                     placement,
@@ -666,6 +671,7 @@ impl Tracer {
             }
             let p = &self.placements[(prim - n_world) as usize];
             inner.enter_placement(prim - n_world);
+            inner.enter_level();
             self.shared[p.geometry as usize].occluded(&local_ray(p, ray), &mut inner)
         });
         counters.merge(inner);
