@@ -179,6 +179,12 @@ impl WideBvh {
 
     /// The packet traversal with the lanes `P` of width `N`.
     ///
+    /// One of the two functions over 100 lines kept whole (issue 40): it is
+    /// one loop whose state (the lanes' rays and culling distances, the
+    /// active mask, the stack) every step reads and writes; split into
+    /// steps, that state would be passed by reference through the packet
+    /// path's hottest loop.
+    ///
     /// # Safety
     /// The CPU must support what `P` needs.
     #[inline(always)]
