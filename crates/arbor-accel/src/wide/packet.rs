@@ -179,7 +179,7 @@ impl WideBvh {
 
     /// The packet traversal with the lanes `P` of width `N`.
     ///
-    /// One of the two functions over 100 lines kept whole (issue 40): it is
+    /// Kept whole although over 100 lines (the only such function): it is
     /// one loop whose state (the lanes' rays and culling distances, the
     /// active mask, the stack) every step reads and writes; split into
     /// steps, that state would be passed by reference through the packet
