@@ -5,9 +5,10 @@ each --instancing mode and L, as a Markdown table; flat is skipped past its
 placement limit. Checks that every mode writes the same bytes.
 
   deep_field_bench.py [--arbor PATH] [--levels 1-9] [--modes flat,nested,auto]
-                      [--plot FILE.svg]
+                      [--plot FILE.svg] [--from-table FILE.md]
 
---plot also draws the table: time and peak memory against L, one line per
+--from-table reads a table this script printed (in a Markdown file, e.g.
+the perf log) instead of rendering. --plot also draws the table: time and peak memory against L, one line per
 mode, memory on a log scale (flat's grows 100-fold a level, nested's not).
 """
 import argparse
@@ -79,13 +80,38 @@ def svg_plot(rows, modes, path):
         f.write("\n".join(out) + "\n")
 
 
+def read_table(path):
+    """(modes, {L: {mode: (seconds, MiB)}}) from the first table in `path`
+    whose header this script writes; `-` cells are left out."""
+    lines = open(path).read().splitlines()
+    start = next(i for i, l in enumerate(lines) if l.startswith("| L | bunnies |"))
+    header = [c.strip() for c in lines[start].strip("|").split("|")]
+    modes = [c[:-2] for c in header[2:-1:2]]
+    rows = {}
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        for k, m in enumerate(modes):
+            t, mib = cells[2 + 2 * k], cells[3 + 2 * k]
+            if t != "-":
+                rows.setdefault(int(cells[0]), {})[m] = (float(t), float(mib))
+    return modes, rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--arbor", default=os.path.join(HERE, "..", "target", "release", "arbor"))
     ap.add_argument("--levels", default="1-9")
     ap.add_argument("--modes", default="flat,nested,auto")
     ap.add_argument("--plot", help="also draw the table as this SVG file")
+    ap.add_argument("--from-table", help="plot the first such table in this Markdown file")
     a = ap.parse_args()
+    if a.from_table:
+        modes, rows = read_table(a.from_table)
+        if a.plot:
+            svg_plot(rows, modes, a.plot)
+        return
     rows = {}
     lo, _, hi = a.levels.partition("-")
     levels = range(int(lo), int(hi or lo) + 1)
