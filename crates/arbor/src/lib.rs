@@ -35,6 +35,7 @@ pub mod film;
 pub mod flatten;
 mod hash_map;
 pub mod heatmap;
+mod level;
 pub mod light;
 pub mod limits;
 pub mod load;

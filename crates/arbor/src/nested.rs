@@ -57,9 +57,9 @@ use glam::{DAffine3, DMat4};
 
 use crate::census::{CensusError, Location};
 use crate::flatten::{Hit, Placement, SingularTransform};
+use crate::level::{cull_distance, local_ray, placed_hit, Frame, Level, SplitCounters};
 use crate::ray::Ray;
 use crate::surface::Candidate;
-use crate::tracer::{cull_distance, local_ray, placed_hit, Frame, Level, SplitCounters};
 
 pub use crate::limits::MAX_INSTANCE_LEVELS;
 

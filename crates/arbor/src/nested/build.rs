@@ -10,9 +10,9 @@ use super::{Child, Definition, NestError, NestedTracer, MAX_INSTANCE_LEVELS};
 use crate::census::Census;
 use crate::flatten::{self, FlatGeometry};
 use crate::hash_map::HashMap;
+use crate::level::{world_box, Frame, Level};
 use crate::scene::{Scene, Variant};
 use crate::surface::Surface;
-use crate::tracer::{world_box, Frame, Level};
 
 /// Builds `scene` into nested levels with structures of `kind` at every
 /// level. A shared definition whose subtree places at most
