@@ -244,8 +244,8 @@ pub(crate) fn flatten(scene: &Scene, options: &RenderOptions) -> anyhow::Result<
 fn build(options: &RenderOptions, scene: &Scene, path: Option<&Path>) -> anyhow::Result<Built> {
     let flat = match arbor::render::plan(scene, options) {
         Plan::Flat => flatten(scene, options)?,
-        Plan::Nested { flatten_at_most } => {
-            return build_nested(options, scene, path, flatten_at_most)
+        Plan::Nested { flatten_budget } => {
+            return build_nested(options, scene, path, flatten_budget)
         }
     };
     let (unique, instanced) = (flat.unique_primitives(), flat.instanced_primitives());
@@ -264,11 +264,11 @@ fn build_nested(
     options: &RenderOptions,
     scene: &Scene,
     path: Option<&Path>,
-    flatten_at_most: u64,
+    flatten_budget: u64,
 ) -> anyhow::Result<Built> {
     let name = path.map_or_else(|| "the default scene".into(), |p| p.display().to_string());
     let start = Instant::now();
-    let tracer = arbor::render::build_nested(scene, options, flatten_at_most)
+    let tracer = arbor::render::build_nested(scene, options, flatten_budget)
         .map_err(|e| InputError(format!("{name}: {e}")))?;
     let took = start.elapsed();
     let census = arbor::census::Census::new(&scene.surfaces, scene.variant)

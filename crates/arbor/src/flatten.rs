@@ -481,7 +481,7 @@ pub(crate) fn has_direct_geometry(s: &Surface) -> bool {
 }
 
 /// The instances directly inside `s` (not inside nested instances).
-fn direct_instances<'s>(s: &'s Surface, out: &mut Vec<&'s Arc<Surface>>) {
+pub(crate) fn direct_instances<'s>(s: &'s Surface, out: &mut Vec<&'s Arc<Surface>>) {
     match s {
         Surface::Group(g) => g.children.iter().for_each(|c| direct_instances(c, out)),
         Surface::Instance(shared) => out.push(shared),

@@ -44,7 +44,7 @@ use rayon::prelude::*;
 
 use crate::flatten::{to_f32_box, FlatGeometry, Hit, Placement};
 use crate::ray::Ray;
-use crate::surface::Candidate;
+use crate::surface::{corner_bounds, Candidate};
 
 /// Relative size of the box pad, see the module documentation.
 const PAD_SCALE: f64 = 1.0 / (1u64 << 19) as f64;
@@ -102,6 +102,14 @@ impl Frame {
             bounds: Some((lo - 2.0 * pad, hi + 2.0 * pad)),
             pad,
         }
+    }
+
+    /// The frame of `boxes` and a structure of `kind` over them, padded
+    /// as the frame pads: what every level indexes its items with.
+    pub(crate) fn indexed(kind: AccelKind, boxes: &[(DVec3, DVec3)]) -> (Frame, Accel) {
+        let frame = Frame::new(boxes);
+        let accel = Accel::build(kind, &frame.boxes(boxes));
+        (frame, accel)
     }
 
     pub(crate) fn boxes(&self, boxes: &[(DVec3, DVec3)]) -> Vec<arbor_accel::Aabb> {
@@ -172,8 +180,7 @@ pub(crate) struct Level {
 impl Level {
     pub(crate) fn new(scene: FlatGeometry, kind: AccelKind) -> Level {
         let boxes: Vec<_> = (0..scene.len()).map(|i| scene.bounds(i)).collect();
-        let frame = Frame::new(&boxes);
-        let accel = Accel::build(kind, &frame.boxes(&boxes));
+        let (frame, accel) = Frame::indexed(kind, &boxes);
         Level {
             scene,
             accel,
@@ -252,19 +259,7 @@ pub(crate) fn local_ray(p: &Placement, ray: &Ray) -> Ray {
 
 /// The world box of a local box under `m`: the box of its 8 transformed corners.
 pub(crate) fn world_box(m: &DAffine3, lo: DVec3, hi: DVec3) -> (DVec3, DVec3) {
-    let mut a = DVec3::splat(f64::INFINITY);
-    let mut b = DVec3::splat(f64::NEG_INFINITY);
-    for i in 0..8 {
-        let c = DVec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        );
-        let w = m.transform_point3(c);
-        a = a.min(w);
-        b = b.max(w);
-    }
-    (a, b)
+    corner_bounds(lo, hi, |c| m.transform_point3(c))
 }
 
 /// `t` rounded up to `f32` and one step more, so that rounding in the

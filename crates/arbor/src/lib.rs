@@ -40,6 +40,7 @@ pub mod light;
 pub mod limits;
 pub mod load;
 pub mod nested;
+mod option_names;
 pub mod partial;
 pub mod ray;
 pub mod render;

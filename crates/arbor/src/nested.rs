@@ -7,11 +7,11 @@
 //! [`Definition`]: its own geometry in its own space with its own structure
 //! (one item), and its child placements' boxes (one item each), indexed by
 //! one structure of any [`AccelKind`]. The root is the world: the geometry
-//! placed once, baked as flatten bakes it, and the top-level placements. A
-//! subtree that places few copies may be flattened into its parent's level
-//! instead (`flatten_at_most`, see [`build`]): its copies become children of
-//! the parent with their chains of transforms, as the flat tracer's
-//! placements are.
+//! placed once, baked as flatten bakes it, and the top-level placements.
+//! Each level may take subtrees of few copies into itself instead, within
+//! a budget of children (`flatten_budget`, see [`build`]): their copies
+//! become children of that level with their chains of transforms, as the
+//! flat tracer's placements are.
 //!
 //! A ray entering a child placement continues in the child's structure,
 //! level after level: the instance frames of a ray (each level's world
@@ -50,7 +50,7 @@ mod instancing;
 mod tests;
 
 pub use build::build;
-pub use instancing::{Instancing, Plan, AUTO_FLAT_AT_MOST};
+pub use instancing::{Instancing, Plan, AUTO_FLATTEN_BUDGET, AUTO_FLAT_AT_MOST};
 
 use arbor_accel::{Accel, Accelerator, NoCounters};
 use glam::{DAffine3, DMat4};

@@ -75,14 +75,12 @@ pub enum BoundingVolumeKind {
 impl std::str::FromStr for BoundingVolumeKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "sphere" => Ok(BoundingVolumeKind::Sphere),
-            "aabb" => Ok(BoundingVolumeKind::Aabb),
-            "obb" => Ok(BoundingVolumeKind::Obb),
-            _ => Err(format!(
-                "unknown bounding volume '{s}'; expected sphere, aabb or obb"
-            )),
-        }
+        let names = [
+            ("sphere", BoundingVolumeKind::Sphere),
+            ("aabb", BoundingVolumeKind::Aabb),
+            ("obb", BoundingVolumeKind::Obb),
+        ];
+        crate::option_names::parse(s, "bounding volume", &names)
     }
 }
 
@@ -273,8 +271,7 @@ impl Tracer {
             })
             .collect();
         boxes.extend(placement_boxes);
-        let frame = Frame::new(&boxes);
-        let top = Accel::build(kind, &frame.boxes(&boxes));
+        let (frame, top) = Frame::indexed(kind, &boxes);
         Tracer {
             world,
             shared,

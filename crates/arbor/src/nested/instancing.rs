@@ -10,6 +10,14 @@ use crate::scene::Scene;
 /// copies, nested faster and 18x smaller at 10^6.
 pub const AUTO_FLAT_AT_MOST: u64 = 1 << 16;
 
+/// `auto`'s budget for a nested scene: each level takes in up to this
+/// many children from flattened subtrees ([`crate::nested::build`]'s
+/// rule). Chosen by measurement (docs/acceleration.md): taking the deep
+/// field's 10^4-bunny subtrees into their parents costs 11 % fewer
+/// instructions a pixel than nesting them, for 7 MB; 10^6 at a level costs
+/// 1 GB.
+pub const AUTO_FLATTEN_BUDGET: u64 = 1 << 14;
+
 /// How references are traced.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Instancing {
@@ -18,7 +26,8 @@ pub enum Instancing {
     Flat,
     /// Every shared definition its own level, built once.
     Nested,
-    /// Flat for a scene of at most [`AUTO_FLAT_AT_MOST`] copies, else nested.
+    /// Flat for a scene of at most [`AUTO_FLAT_AT_MOST`] copies, else
+    /// nested, flattening subtrees within [`AUTO_FLATTEN_BUDGET`] a level.
     #[default]
     Auto,
 }
@@ -31,9 +40,9 @@ pub enum Plan {
     /// The nested tracer, flattening subtrees of at most this many copies
     /// ([`crate::nested::build`]).
     Nested {
-        /// The subtree size flattened into its parent's level (1: nested
-        /// throughout; every plan uses it so far, see [`AUTO_FLAT_AT_MOST`]).
-        flatten_at_most: u64,
+        /// How many children each level may take in from flattened
+        /// subtrees ([`crate::nested::build`]; 1: nested throughout).
+        flatten_budget: u64,
     },
 }
 
@@ -42,38 +51,36 @@ impl Instancing {
     /// the DAG (linear in its size); a scene the census refuses goes flat,
     /// whose own checks then report it as they always did.
     pub fn plan(self, scene: &Scene) -> Plan {
-        let nested = |flatten_at_most| Plan::Nested { flatten_at_most };
+        let nested = |flatten_budget| Plan::Nested { flatten_budget };
         match self {
             Instancing::Flat => Plan::Flat,
             Instancing::Nested => nested(1),
             Instancing::Auto => match Census::new(&scene.surfaces, scene.variant) {
-                Ok(c) if c.placements > u128::from(AUTO_FLAT_AT_MOST) => nested(1),
+                Ok(c) if c.placements > u128::from(AUTO_FLAT_AT_MOST) => {
+                    nested(AUTO_FLATTEN_BUDGET)
+                }
                 _ => Plan::Flat,
             },
         }
     }
 }
 
+/// The words of `--instancing`.
+const NAMES: &[(&str, Instancing)] = &[
+    ("flat", Instancing::Flat),
+    ("nested", Instancing::Nested),
+    ("auto", Instancing::Auto),
+];
+
 impl std::str::FromStr for Instancing {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "flat" => Ok(Instancing::Flat),
-            "nested" => Ok(Instancing::Nested),
-            "auto" => Ok(Instancing::Auto),
-            _ => Err(format!(
-                "unknown instancing '{s}'; expected flat, nested or auto"
-            )),
-        }
+        crate::option_names::parse(s, "instancing", NAMES)
     }
 }
 
 impl std::fmt::Display for Instancing {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Instancing::Flat => "flat",
-            Instancing::Nested => "nested",
-            Instancing::Auto => "auto",
-        })
+        f.write_str(crate::option_names::name(self, NAMES))
     }
 }

@@ -124,13 +124,13 @@ fn nested_answers_bit_for_bit_as_flat_on_random_dags() {
     for seed in 0..6u64 {
         let scene = dag(seed, 2 + (seed % 3) as usize);
         let flat = flat(&scene);
-        for (kind, flatten_at_most) in [
+        for (kind, flatten_budget) in [
             (TracerOptions::default().accel, 1),
             (AccelKind::List, 1),
             (TracerOptions::default().accel, 5),
             (AccelKind::BvhSah, u64::MAX),
         ] {
-            let nested = build(&scene, kind, flatten_at_most).unwrap();
+            let nested = build(&scene, kind, flatten_budget).unwrap();
             let mut random = sequence(seed + 100);
             let span = 8.0;
             for k in 0..1000 {
@@ -142,7 +142,7 @@ fn nested_answers_bit_for_bit_as_flat_on_random_dags() {
                     (0.0, f64::INFINITY)
                 };
                 let ray = Ray::new(o, aim - o, tmin, tmax);
-                let what = format!("seed {seed} {kind} {flatten_at_most} ray {k}");
+                let what = format!("seed {seed} {kind} {flatten_budget} ray {k}");
                 hits += usize::from(same_answers(&flat, &nested, &ray, &what));
             }
         }
@@ -241,4 +241,59 @@ fn nesting_deeper_than_the_limit_is_refused() {
         e.to_string(),
         "top-level surface 2 (ref): references nest 33 deep from here; nested instancing follows at most 32"
     );
+}
+
+/// The flatten budget's rule on a field of 2 x 10 x 10 balls: each level
+/// takes in child definitions while their cost (placements there times
+/// copies each) fits, and a level of geometry alone is always taken in.
+#[test]
+fn each_level_flattens_its_children_within_its_budget() {
+    let group = |of: &Arc<Surface>, n: usize| {
+        let children = (0..n)
+            .map(|i| {
+                Surface::Group(Group {
+                    transform: DMat4::from_translation(DVec3::new(2.0 * i as f64, 0.0, 0.0)),
+                    children: vec![Surface::Instance(of.clone())],
+                })
+            })
+            .collect();
+        Arc::new(Surface::Group(Group {
+            transform: DMat4::IDENTITY,
+            children,
+        }))
+    };
+    let ball = Surface::Sphere(Sphere {
+        center: DVec3::ZERO,
+        radius: 0.8,
+        shader: default_shader(),
+    });
+    let a = group(&Arc::new(ball), 10);
+    let b = group(&a, 10);
+    let mut scene = crate::default_scene::classroom();
+    let beside = Surface::Group(Group {
+        transform: DMat4::from_translation(DVec3::new(0.0, 0.0, 1.5)),
+        children: vec![Surface::Instance(b.clone())],
+    });
+    scene.surfaces = vec![Surface::Instance(b), beside];
+    let children = |budget| build(&scene, AccelKind::BvhSah, budget).unwrap().children();
+    // Nested throughout: 2 placements of b, 10 of a in b, 10 balls in a.
+    assert_eq!(children(1), 22);
+    // b (cost 10 x 10) takes a in; the world (cost 2 x 100) does not take b.
+    assert_eq!(children(100), 2 + 100);
+    assert_eq!(children(199), 2 + 100);
+    // The world takes everything in: the flat tracer's two levels.
+    assert_eq!(children(200), 200);
+    let flat = flat(&scene);
+    let mut hits = 0;
+    for budget in [1, 100, 200] {
+        let nested = build(&scene, AccelKind::BvhSah, budget).unwrap();
+        let mut random = sequence(budget);
+        for k in 0..200 {
+            let o = DVec3::new(38.0 * random() - 1.0, 5.0, 2.8 * random() - 0.6);
+            let ray = Ray::new(o, DVec3::new(0.1, -1.0, 0.05), 0.0, f64::INFINITY);
+            let what = format!("budget {budget} ray {k}");
+            hits += usize::from(same_answers(&flat, &nested, &ray, &what));
+        }
+    }
+    assert!(hits > 200, "{hits} hits");
 }

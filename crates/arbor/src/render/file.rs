@@ -128,7 +128,7 @@ pub fn render_file(
                 .map_err(|source| RenderFileError::Flatten { path, source })?;
             build_tracer(flat, options)
         }
-        Plan::Nested { flatten_at_most } => build_nested(&scene, options, flatten_at_most)
+        Plan::Nested { flatten_budget } => build_nested(&scene, options, flatten_budget)
             .map_err(|source| RenderFileError::Nest { path, source })?,
     };
     let film =
@@ -180,9 +180,9 @@ pub fn plan(scene: &Scene, options: &RenderOptions) -> Plan {
 pub fn build_nested(
     scene: &Scene,
     options: &RenderOptions,
-    flatten_at_most: u64,
+    flatten_budget: u64,
 ) -> Result<Tracer, NestError> {
-    let nested = crate::nested::build(scene, options.accel, flatten_at_most)?;
+    let nested = crate::nested::build(scene, options.accel, flatten_budget)?;
     Ok(Tracer::from_nested(nested, options.accel, scene.variant))
 }
 

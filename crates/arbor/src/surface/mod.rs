@@ -24,6 +24,7 @@ pub use cylinder::Cylinder;
 pub use group::Group;
 pub use mesh_data::MeshData;
 pub use sphere::Sphere;
+pub(crate) use transformed::corner_bounds;
 pub use transformed::Transform;
 
 /// A node of the scene graph.

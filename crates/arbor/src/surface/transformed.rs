@@ -65,19 +65,7 @@ impl Transform {
 
     /// The box (as min, max) enclosing the 8 transformed corners of an object box.
     pub fn bounds_to_world(&self, min: DVec3, max: DVec3) -> (DVec3, DVec3) {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for i in 0..8 {
-            let c = DVec3::new(
-                if i & 1 == 0 { min.x } else { max.x },
-                if i & 2 == 0 { min.y } else { max.y },
-                if i & 4 == 0 { min.z } else { max.z },
-            );
-            let w = self.point_to_world(c);
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
-        (lo, hi)
+        corner_bounds(min, max, |c| self.point_to_world(c))
     }
 }
 
@@ -123,6 +111,28 @@ fn axis_rotation(degrees: f64, axis: usize) -> DMat4 {
         ),
     };
     DMat4::from_mat3(m)
+}
+
+/// The box (as min, max) of the 8 corners of the box `lo`..`hi` mapped by
+/// `to_world`: a box that holds the mapped box for any affine map.
+pub(crate) fn corner_bounds(
+    lo: DVec3,
+    hi: DVec3,
+    to_world: impl Fn(DVec3) -> DVec3,
+) -> (DVec3, DVec3) {
+    let mut a = DVec3::splat(f64::INFINITY);
+    let mut b = DVec3::splat(f64::NEG_INFINITY);
+    for i in 0..8 {
+        let c = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        let w = to_world(c);
+        a = a.min(w);
+        b = b.max(w);
+    }
+    (a, b)
 }
 
 #[cfg(test)]
