@@ -24,7 +24,8 @@ pub enum Instancing {
     /// Every chain of references composed down to one placement per copy
     /// (two levels; memory follows the copies).
     Flat,
-    /// Every shared definition its own level, built once.
+    /// Every shared definition that places others its own level, built
+    /// once.
     Nested,
     /// Flat for a scene of at most [`AUTO_FLAT_AT_MOST`] copies, else
     /// nested, flattening subtrees within [`AUTO_FLATTEN_BUDGET`] a level.
@@ -37,8 +38,7 @@ pub enum Instancing {
 pub enum Plan {
     /// The flat tracer.
     Flat,
-    /// The nested tracer, flattening subtrees of at most this many copies
-    /// ([`crate::nested::build`]).
+    /// The nested tracer, each level flattening subtrees within a budget.
     Nested {
         /// How many children each level may take in from flattened
         /// subtrees ([`crate::nested::build`]; 1: nested throughout).
