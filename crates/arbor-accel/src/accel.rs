@@ -166,14 +166,16 @@ impl fmt::Display for UnknownAccel {
 
 impl std::error::Error for UnknownAccel {}
 
+/// The entry of `all` whose `name` is `s`: how the names users type are
+/// parsed, for the kinds and the qualities alike.
+fn by_name<T: Copy>(all: &[T], name: fn(T) -> &'static str, s: &str) -> Option<T> {
+    all.iter().copied().find(|&k| name(k) == s)
+}
+
 impl FromStr for AccelKind {
     type Err = UnknownAccel;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        AccelKind::ALL
-            .iter()
-            .copied()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| UnknownAccel(s.to_string()))
+        by_name(AccelKind::ALL, AccelKind::name, s).ok_or_else(|| UnknownAccel(s.to_string()))
     }
 }
 
@@ -229,10 +231,7 @@ impl FromStr for BuildQuality {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        BuildQuality::ALL
-            .iter()
-            .copied()
-            .find(|q| q.name() == s)
+        by_name(BuildQuality::ALL, BuildQuality::name, s)
             .ok_or_else(|| format!("unknown build quality {s:?} (expected fast or high)"))
     }
 }

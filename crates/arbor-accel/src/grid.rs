@@ -467,7 +467,7 @@ mod tests {
     use super::*;
     use crate::counters::{NoCounters, RayCounts};
     use crate::list::List;
-    use crate::test_meshes::assert_agrees_with_list;
+    use crate::test_meshes::{assert_agrees_with_list, offered};
     use crate::triangle::mesh::TriangleMesh;
 
     fn soup() -> TriangleMesh {
@@ -511,12 +511,7 @@ mod tests {
     fn a_small_model_on_a_large_floor_gets_fine_cells() {
         let mut boxes: Vec<Aabb> = (0..1000)
             .map(|i| {
-                let f = i as f32;
-                let c = Vec3::new(
-                    (f * 0.618).fract(),
-                    (f * 0.414).fract(),
-                    (f * 0.732).fract(),
-                );
+                let c = crate::test_meshes::scattered(i);
                 Aabb::new(c, c + Vec3::splat(0.01))
             })
             .collect();
@@ -566,18 +561,8 @@ mod tests {
         let g = Grid::build(&flat, &GridParams::default());
         assert_eq!(g.resolution()[2], 1);
         let r = Ray::new(Vec3::new(1.01, 0.5, 0.0), Vec3::ZERO, 0.0, 1.0);
-        let mut seen = Vec::new();
-        g.closest(&r, &mut NoCounters, |p, _| {
-            seen.push(p);
-            None
-        });
-        assert!(seen.contains(&10));
+        assert!(offered(&g, &r).contains(&10));
         let r = Ray::new(Vec3::new(-1.0, 0.5, 0.0), Vec3::X, 0.0, f32::INFINITY);
-        let mut n = 0;
-        g.closest(&r, &mut NoCounters, |_, _| {
-            n += 1;
-            None
-        });
-        assert_eq!(n, 50);
+        assert_eq!(offered(&g, &r).len(), 50);
     }
 }

@@ -3,9 +3,21 @@
 use crate::accel::Accelerator;
 use crate::counters::NoCounters;
 use crate::list::List;
+use crate::primitives::PrimitiveId;
 use crate::ray::Ray;
 use crate::triangle::mesh::TriangleMesh;
 use glam::Vec3;
+
+/// Point `i` of a sequence spread through the unit cube by irrational
+/// strides, which keep the points apart without a generator.
+pub(crate) fn scattered(i: u32) -> Vec3 {
+    let f = i as f32;
+    Vec3::new(
+        (f * 0.618).fract(),
+        (f * 0.414).fract(),
+        (f * 0.732).fract(),
+    )
+}
 
 /// `n` triangles of assorted sizes and slopes scattered through a box of
 /// side 10 (an irrational stride keeps them apart without a generator).
@@ -14,11 +26,7 @@ pub(crate) fn soup(n: u32) -> TriangleMesh {
     let mut t = Vec::new();
     for i in 0..n {
         let f = i as f32;
-        let c = Vec3::new(
-            (f * 0.618).fract(),
-            (f * 0.414).fract(),
-            (f * 0.732).fract(),
-        ) * 10.0;
+        let c = scattered(i) * 10.0;
         v.push(c);
         v.push(c + Vec3::new((f * 1.3).sin(), 0.5, (f * 0.7).cos()));
         v.push(c + Vec3::new(0.3, (f * 2.1).cos(), 0.8));
@@ -57,6 +65,17 @@ pub(crate) fn nearest_t(accel: &impl Accelerator, mesh: &TriangleMesh, ray: &Ray
         Some(t)
     });
     best
+}
+
+/// The primitives `accel` offers for `ray` when it hits none, in the
+/// order offered: every one in the regions the ray passes through.
+pub(crate) fn offered(accel: &impl Accelerator, ray: &Ray) -> Vec<PrimitiveId> {
+    let mut seen = Vec::new();
+    accel.closest(ray, &mut NoCounters, |p, _| {
+        seen.push(p);
+        None
+    });
+    seen
 }
 
 /// Asserts that `accel` answers `ray`'s closest and occlusion queries on

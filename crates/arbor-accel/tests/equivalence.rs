@@ -10,6 +10,7 @@ use arbor_accel::{
     TriangleMesh, Vec3,
 };
 use proptest::prelude::*;
+use std::fmt;
 
 /// Coordinates mixing a continuous range, a coarse lattice (coincident
 /// vertices, axis-aligned and flat triangles, rays in face planes) and huge
@@ -145,6 +146,26 @@ fn make_ray(spec: &RaySpec, targets: &[Vec3]) -> Ray {
         _ => spec.dir,
     };
     Ray::new(spec.origin, dir, spec.tmin, spec.tmax.max(spec.tmin))
+}
+
+/// [`check`]s each of `built` (structures over `prims`) against brute
+/// force on the rays of `specs`, aimed at `targets`; `exact` is a
+/// primitive's own hit test.
+fn check_rays<P: Primitives + ?Sized>(
+    prims: &P,
+    built: &[(impl fmt::Display, Accel)],
+    specs: &[RaySpec],
+    targets: &[Vec3],
+    exact: impl Fn(u32, &Ray) -> Option<f32>,
+) -> Result<(), TestCaseError> {
+    let list = List::build(prims);
+    for spec in specs {
+        let ray = make_ray(spec, targets);
+        for (name, a) in built {
+            check(&name.to_string(), a, &list, prims.len(), &ray, &exact)?;
+        }
+    }
+    Ok(())
 }
 
 /// Every structure except brute force itself.
@@ -298,31 +319,15 @@ proptest! {
 
     #[test]
     fn triangle_soups_match_brute_force(mesh in triangles(), rays in prop::collection::vec(ray_spec(), 1..24)) {
-        let n = mesh.triangles.len();
-        let list = List::build(&mesh);
         let exact = |p: u32, r: &Ray| mesh.intersect(p, r).map(|h| h.t);
-        let built = structures(&mesh);
-        for spec in &rays {
-            let ray = make_ray(spec, &mesh.vertices);
-            for (kind, a) in &built {
-                check(kind.name(), a, &list, n, &ray, &exact)?;
-            }
-        }
+        check_rays(&mesh, &structures(&mesh), &rays, &mesh.vertices, exact)?;
     }
 
     #[test]
     fn boxed_spheres_match_brute_force(bs in boxes(), rays in prop::collection::vec(ray_spec(), 1..24)) {
-        let n = bs.len();
-        let list = List::build(&bs);
         let exact = |p: u32, r: &Ray| sphere_hit(&bs[p as usize], r);
-        let built = structures(&bs);
         let centers: Vec<Vec3> = bs.iter().map(Aabb::center).collect();
-        for spec in &rays {
-            let ray = make_ray(spec, &centers);
-            for (kind, a) in &built {
-                check(kind.name(), a, &list, n, &ray, &exact)?;
-            }
-        }
+        check_rays(&bs, &structures(&bs), &rays, &centers, exact)?;
     }
 }
 
@@ -337,26 +342,11 @@ proptest! {
         bs in crowded_boxes(),
         rays in prop::collection::vec(ray_spec(), 1..24),
     ) {
-        let n = mesh.triangles.len();
-        let list = List::build(&mesh);
         let exact = |p: u32, r: &Ray| mesh.intersect(p, r).map(|h| h.t);
-        let built = spatial_structures(&mesh);
-        for spec in &rays {
-            let ray = make_ray(spec, &mesh.vertices);
-            for (name, a) in &built {
-                check(name, a, &list, n, &ray, &exact)?;
-            }
-        }
-        let list = List::build(&bs);
+        check_rays(&mesh, &spatial_structures(&mesh), &rays, &mesh.vertices, exact)?;
         let exact = |p: u32, r: &Ray| sphere_hit(&bs[p as usize], r);
-        let built = spatial_structures(&bs);
         let centers: Vec<Vec3> = bs.iter().map(Aabb::center).collect();
-        for spec in &rays {
-            let ray = make_ray(spec, &centers);
-            for (name, a) in &built {
-                check(name, a, &list, bs.len(), &ray, &exact)?;
-            }
-        }
+        check_rays(&bs, &spatial_structures(&bs), &rays, &centers, exact)?;
     }
 }
 

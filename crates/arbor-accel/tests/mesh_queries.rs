@@ -116,6 +116,23 @@ fn assert_ray_queries_equal_brute_force(
     Ok(())
 }
 
+/// Asserts that each of `builds` of the mesh answers the rays of `specs`
+/// as brute force does ([`assert_ray_queries_equal_brute_force`]).
+fn assert_builds_equal_brute_force(
+    builds: Vec<(String, AccelKind, AccelParams)>,
+    vertices: &[Vec3],
+    triangles: &[[u32; 3]],
+    specs: &[(Vec3, Vec3, u8, usize, usize)],
+) -> Result<(), TestCaseError> {
+    let rays = rays(vertices, specs);
+    for (name, kind, params) in builds {
+        let mesh =
+            MeshAccel::build_with(vertices.to_vec(), triangles.to_vec(), kind, &params).unwrap();
+        assert_ray_queries_equal_brute_force(&name, &mesh, vertices, triangles, &rays)?;
+    }
+    Ok(())
+}
+
 /// Rays: free, or aimed at a vertex or an edge midpoint of the mesh.
 fn rays(vertices: &[Vec3], specs: &[(Vec3, Vec3, u8, usize, usize)]) -> Vec<Ray> {
     specs
@@ -212,12 +229,7 @@ proptest! {
     /// counts, and the closest hit at brute force's distance.
     #[test]
     fn ray_queries_equal_brute_force((vertices, triangles) in mesh(), specs in ray_specs()) {
-        let rays = rays(&vertices, &specs);
-        for (name, kind, params) in builds() {
-            let mesh =
-                MeshAccel::build_with(vertices.clone(), triangles.clone(), kind, &params).unwrap();
-            assert_ray_queries_equal_brute_force(&name, &mesh, &vertices, &triangles, &rays)?;
-        }
+        assert_builds_equal_brute_force(builds(), &vertices, &triangles, &specs)?;
     }
 
     /// Streams of camera rays, which the batches trace as packets (of
@@ -277,12 +289,7 @@ proptest! {
         (vertices, triangles) in large_mesh(),
         specs in ray_specs(),
     ) {
-        let rays = rays(&vertices, &specs);
-        for (name, kind, params) in spatial_builds() {
-            let mesh =
-                MeshAccel::build_with(vertices.clone(), triangles.clone(), kind, &params).unwrap();
-            assert_ray_queries_equal_brute_force(&name, &mesh, &vertices, &triangles, &rays)?;
-        }
+        assert_builds_equal_brute_force(spatial_builds(), &vertices, &triangles, &specs)?;
     }
 
     /// The closest point is at brute force's minimum distance (the same
@@ -322,6 +329,34 @@ proptest! {
             }
         }
     }
+}
+
+/// [`icosphere`] with its vertices' radii scaled by `bumps` (in turn),
+/// then the whole scaled by `scale` and moved by `offset`: closed, still
+/// outward-facing, and where rounding is at its worst when far and small.
+fn bumpy_icosphere(
+    levels: usize,
+    bumps: &[f32],
+    scale: f32,
+    offset: Vec3,
+) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (v, t) = icosphere(levels);
+    let v = v
+        .iter()
+        .zip(bumps.iter().cycle())
+        .map(|(&p, &r)| p * r * scale + offset)
+        .collect();
+    (v, t)
+}
+
+/// Where [`bumpy_icosphere`]s stand: at the origin or far from it.
+fn offset() -> impl Strategy<Value = Vec3> {
+    prop_oneof![Just(Vec3::ZERO), Just(Vec3::new(1000.0, -2000.0, 500.0))]
+}
+
+/// How large [`bumpy_icosphere`]s are: of radius about 1 or a thousandth.
+fn scale() -> impl Strategy<Value = f32> {
+    prop_oneof![Just(1.0f32), Just(1e-3)]
 }
 
 /// A closed, consistently oriented icosphere of radius 1.
@@ -595,13 +630,12 @@ proptest! {
     #[test]
     fn inside_answers_the_rays_parity_on_bumpy_closed_meshes(
         bumps in prop::collection::vec(0.7f32..1.3, 42),
-        offset in prop_oneof![Just(Vec3::ZERO), Just(Vec3::new(1000.0, -2000.0, 500.0))],
-        scale in prop_oneof![Just(1.0f32), Just(1e-3)],
+        offset in offset(),
+        scale in scale(),
         points in prop::collection::vec(point(), 1..64),
         nudge in prop_oneof![Just(1e-7f32), Just(1e-4), Just(0.02)],
     ) {
-        let (v, t) = icosphere(1);
-        let v: Vec<Vec3> = v.iter().zip(bumps.iter().cycle()).map(|(&p, &r)| p * r * scale + offset).collect();
+        let (v, t) = bumpy_icosphere(1, &bumps, scale, offset);
         let mesh = MeshAccel::build(v.clone(), t.clone(), AccelKind::DEFAULT).unwrap();
         prop_assert_eq!(mesh.open_edges(), 0);
         let scattered = points.iter().map(|&p| p * 0.4 * scale + offset);
@@ -684,12 +718,11 @@ proptest! {
     #[test]
     fn winding_numbers_agree_with_inside_on_closed_meshes(
         bumps in prop::collection::vec(0.7f32..1.3, 162),
-        offset in prop_oneof![Just(Vec3::ZERO), Just(Vec3::new(1000.0, -2000.0, 500.0))],
-        scale in prop_oneof![Just(1.0f32), Just(1e-3)],
+        offset in offset(),
+        scale in scale(),
         points in prop::collection::vec(point(), 1..64),
     ) {
-        let (v, t) = icosphere(2);
-        let v: Vec<Vec3> = v.iter().zip(bumps.iter().cycle()).map(|(&p, &r)| p * r * scale + offset).collect();
+        let (v, t) = bumpy_icosphere(2, &bumps, scale, offset);
         let mesh = MeshAccel::build(v, t, AccelKind::DEFAULT).unwrap();
         for p in points.iter().map(|&p| p * 0.4 * scale + offset) {
             let near = mesh.closest_point(p, f32::INFINITY).unwrap().distance;

@@ -119,28 +119,20 @@ impl FlatGeometry {
     pub(crate) fn add_leaf(&mut self, leaf: &Surface, m: DMat4) -> Result<(), SingularTransform> {
         match leaf {
             Surface::Sphere(s) => {
-                let (transform, shader) = (self.transform_index(m)?, self.shader_index(&s.shader));
-                self.primitives.push(Primitive {
-                    shape: Shape::Sphere {
-                        center: s.center,
-                        radius: s.radius,
-                    },
-                    transform,
-                    shader,
-                });
+                let shape = Shape::Sphere {
+                    center: s.center,
+                    radius: s.radius,
+                };
+                self.push_primitive(shape, m, &s.shader)?;
             }
             Surface::Box(b) => self.add_box(b, m)?,
             Surface::Cylinder(c) => {
-                let (transform, shader) = (self.transform_index(m)?, self.shader_index(&c.shader));
-                self.primitives.push(Primitive {
-                    shape: Shape::Cylinder {
-                        center: c.center,
-                        radius: c.radius,
-                        height: c.height,
-                    },
-                    transform,
-                    shader,
-                });
+                let shape = Shape::Cylinder {
+                    center: c.center,
+                    radius: c.radius,
+                    height: c.height,
+                };
+                self.push_primitive(shape, m, &c.shader)?;
             }
             Surface::Mesh(mesh) => {
                 let flat = match self.variant {
@@ -153,6 +145,22 @@ impl FlatGeometry {
                 unreachable!("only leaves are added")
             }
         }
+        Ok(())
+    }
+
+    /// Adds an analytic primitive of `shape` under `m` with `shader`.
+    fn push_primitive(
+        &mut self,
+        shape: Shape,
+        m: DMat4,
+        shader: &Arc<Shader>,
+    ) -> Result<(), SingularTransform> {
+        let (transform, shader) = (self.transform_index(m)?, self.shader_index(shader));
+        self.primitives.push(Primitive {
+            shape,
+            transform,
+            shader,
+        });
         Ok(())
     }
 
@@ -539,13 +547,7 @@ impl Builder {
     /// instances placed once inline, shared ones as placements.
     fn walk(&mut self, s: &Surface, m: DMat4) -> Result<(), FlattenError> {
         match s {
-            Surface::Group(g) => {
-                let m = m * g.transform;
-                for c in &g.children {
-                    self.walk(c, m)?;
-                }
-                Ok(())
-            }
+            Surface::Group(g) => g.try_for_each_child(m, |c, m| self.walk(c, m)),
             Surface::Instance(shared) if self.uses[&key(shared)].0 <= 1 => self.walk(shared, m),
             Surface::Instance(shared) => self.place(shared, m),
             leaf => Ok(self.out.world.add_leaf(leaf, m)?),
@@ -567,13 +569,7 @@ impl Builder {
 
     fn place_nested(&mut self, s: &Surface, m: DMat4) -> Result<(), FlattenError> {
         match s {
-            Surface::Group(g) => {
-                let m = m * g.transform;
-                for c in &g.children {
-                    self.place_nested(c, m)?;
-                }
-                Ok(())
-            }
+            Surface::Group(g) => g.try_for_each_child(m, |c, m| self.place_nested(c, m)),
             Surface::Instance(shared) => self.place(shared, m),
             _ => Ok(()),
         }
@@ -605,13 +601,7 @@ pub(crate) fn add_direct_leaves(
     m: DMat4,
 ) -> Result<(), SingularTransform> {
     match s {
-        Surface::Group(g) => {
-            let m = m * g.transform;
-            for c in &g.children {
-                add_direct_leaves(flat, c, m)?;
-            }
-            Ok(())
-        }
+        Surface::Group(g) => g.try_for_each_child(m, |c, m| add_direct_leaves(flat, c, m)),
         Surface::Instance(_) => Ok(()),
         leaf => flat.add_leaf(leaf, m),
     }

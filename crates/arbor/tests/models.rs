@@ -3,12 +3,12 @@
 //! the error paths. Without the package the tests that need it report
 //! themselves skipped, unless `ARBOR_REQUIRE_TEST_DATA=1`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use arbor::flatten::{FlattenedScene, DEFAULT_MAX_PLACEMENTS};
 use arbor::light::Light;
-use arbor::load::LoadError;
 use arbor::load::{frame, load_model, load_model_scene};
+use arbor::load::{LoadError, Model};
 use arbor::shader::Shader;
 use arbor::surface::Surface;
 use arbor_test_data::assimp_models as models;
@@ -119,8 +119,9 @@ fn spider_and_wuson_agree_across_formats() {
 
 #[test]
 fn mtl_materials_become_shaders() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("OBJ/cube_usemtl.obj")).unwrap();
+    let Some(m) = assimp_model("OBJ/cube_usemtl.obj") else {
+        return;
+    };
     let exponents: Vec<f64> = m
         .surfaces
         .iter()
@@ -145,8 +146,9 @@ fn mtl_materials_become_shaders() {
 /// the materials that name the same image.
 #[test]
 fn mtl_textures_are_read() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
+    let Some(m) = assimp_model("OBJ/spider.obj") else {
+        return;
+    };
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
     let textures: Vec<_> = mesh_shaders(&m.surfaces)
         .iter()
@@ -161,16 +163,13 @@ fn mtl_textures_are_read() {
 /// material's colour. A texture replaces the colour where it is found.
 #[test]
 fn missing_or_broken_textures_are_warnings() {
-    let dir = tempfile::tempdir().unwrap();
-    let obj = dir.path().join("quad.obj");
-    std::fs::write(
-        &obj,
+    let (dir, obj) = folder_with(
+        "quad.obj",
         "mtllib quad.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
          vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
          usemtl missing\nf 1/1 2/2 3/3\nusemtl broken\nf 1/1 3/3 4/4\n\
          usemtl good\nf 1/1 2/2 4/4\n",
-    )
-    .unwrap();
+    );
     std::fs::write(
         dir.path().join("quad.mtl"),
         "newmtl missing\nKd 0.5 0.5 0.5\nmap_Kd nowhere.png\n\
@@ -291,11 +290,7 @@ fn written_broken_files_fail_with_their_line() {
     )
     .unwrap();
     let m = load_model(&path).unwrap();
-    assert!(
-        m.warnings.iter().any(|w| w.contains("material library")),
-        "{:?}",
-        m.warnings
-    );
+    assert_warned(&m.warnings, "material library");
 }
 
 #[test]
@@ -508,13 +503,10 @@ fn the_engine_keeps_its_shared_meshes() {
 /// output's gamma brings back near the texel it was.
 #[test]
 fn model_textures_are_decoded_from_srgb() {
-    let dir = tempfile::tempdir().unwrap();
-    let obj = dir.path().join("t.obj");
-    std::fs::write(
-        &obj,
+    let (dir, obj) = folder_with(
+        "t.obj",
         "mtllib t.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl t\nf 1/1 2/2 3/3\n",
-    )
-    .unwrap();
+    );
     std::fs::write(dir.path().join("t.mtl"), "newmtl t\nmap_Kd t.png\n").unwrap();
     image::RgbImage::from_pixel(1, 1, image::Rgb([92, 135, 39]))
         .save(dir.path().join("t.png"))
@@ -535,8 +527,9 @@ fn model_textures_are_decoded_from_srgb() {
 /// ways by four materials).
 #[test]
 fn gltf_base_colour_factor_tints_the_texture() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("glTF2/issue_3269/texcoord_crash.gltf")).unwrap();
+    let Some(m) = assimp_model("glTF2/issue_3269/texcoord_crash.gltf") else {
+        return;
+    };
     let mut tints = Vec::new();
     for (shader, _) in mesh_shaders(&m.surfaces) {
         if let Some(t) = texture_of(&shader) {
@@ -568,14 +561,11 @@ fn gltf_base_colour_factor_tints_the_texture() {
 /// and 12 polylines.
 #[test]
 fn obj_lines_and_points_are_not_faces() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("OBJ/testmixed.obj")).unwrap();
+    let Some(m) = assimp_model("OBJ/testmixed.obj") else {
+        return;
+    };
     assert_eq!(triangles(&m.surfaces), 12);
-    assert!(
-        m.warnings.iter().any(|w| w.contains("'l' and 'p'")),
-        "{:?}",
-        m.warnings
-    );
+    assert_warned(&m.warnings, "'l' and 'p'");
 }
 
 /// MTL libraries load in any byte encoding (Latin-1 bytes in `regr01.mtl`
@@ -605,12 +595,9 @@ fn obj_and_mtl_in_any_encoding() {
     }
     let m = load_model(&dir.join("OBJ/empty_mat.obj")).unwrap();
     assert!(triangles(&m.surfaces) > 0);
-    assert!(
-        m.warnings
-            .iter()
-            .any(|w| w.contains("empty_mat.mtl:3: warning: a material with no name")),
-        "{:?}",
-        m.warnings
+    assert_warned(
+        &m.warnings,
+        "empty_mat.mtl:3: warning: a material with no name",
     );
     let m = load_model(&dir.join("OBJ/box_UTF16BE.obj")).unwrap();
     assert_eq!(triangles(&m.surfaces), 12);
@@ -676,15 +663,12 @@ fn vertex_colors(path: &Path) -> Option<Vec<glam::Vec3>> {
 /// (`float-color.ply`) and as bytes (a file written here).
 #[test]
 fn vertex_colours_are_read_linear() {
-    let dir = tempfile::tempdir().unwrap();
-    let ply = dir.path().join("c.ply");
-    std::fs::write(
-        &ply,
+    let (_dir, ply) = folder_with(
+        "c.ply",
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
          property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n\
          property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 188 0 0\n0 1 0 0 0 255\n3 0 1 2\n",
-    )
-    .unwrap();
+    );
     let c = vertex_colors(&ply).expect("the PLY has colours");
     assert_eq!(c[0], glam::Vec3::new(1.0, 0.0, 0.0));
     assert!(
@@ -715,13 +699,7 @@ fn vertex_colours_are_read_linear() {
 fn all_degenerate_models_are_warned_about() {
     let Some(dir) = models() else { return };
     let m = load_model(&dir.join("OBJ/number_formats.obj")).unwrap();
-    assert!(
-        m.warnings
-            .iter()
-            .any(|w| w.contains("every triangle has zero area")),
-        "{:?}",
-        m.warnings
-    );
+    assert_warned(&m.warnings, "every triangle has zero area");
     let m = load_model(&dir.join("OBJ/spider.obj")).unwrap();
     assert!(m.warnings.is_empty(), "{:?}", m.warnings);
 }
@@ -762,8 +740,9 @@ fn model_options_turn_and_frame() {
 /// (emissiveFactor 0) do not.
 #[test]
 fn gltf_emission_is_kept() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("glTF2/ClearCoat-glTF/ClearCoatTest.gltf")).unwrap();
+    let Some(m) = assimp_model("glTF2/ClearCoat-glTF/ClearCoatTest.gltf") else {
+        return;
+    };
     let shaders = mesh_shaders(&m.surfaces);
     let glowing: Vec<_> = shaders
         .iter()
@@ -784,6 +763,29 @@ fn gltf_emission_is_kept() {
     assert!(glowing.len() < shaders.len(), "every material glows");
 }
 
+/// The assimp test model at `relative`, loaded, or `None` where the models
+/// are not installed (the test then skips, as [`models`] says).
+fn assimp_model(relative: &str) -> Option<Model> {
+    Some(load_model(&arbor_test_data::assimp_model(relative)?).unwrap())
+}
+
+/// A temporary folder holding one file, `name`, with `contents`, and the
+/// file's path (the folder is removed when dropped).
+fn folder_with(name: &str, contents: impl AsRef<[u8]>) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, contents).unwrap();
+    (dir, path)
+}
+
+/// Asserts that one of `warnings` contains `words`.
+fn assert_warned(warnings: &[String], words: &str) {
+    assert!(
+        !warnings_with(warnings, words).is_empty(),
+        "no warning says {words:?}: {warnings:?}"
+    );
+}
+
 /// The warnings that contain `words`.
 fn warnings_with<'a>(warnings: &'a [String], words: &str) -> Vec<&'a String> {
     warnings.iter().filter(|w| w.contains(words)).collect()
@@ -793,17 +795,14 @@ fn warnings_with<'a>(warnings: &'a [String], words: &str) -> Vec<&'a String> {
 /// ignored without a word; the ones it implements are not.
 #[test]
 fn gltf_ignored_extensions_are_warned_about() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("ext.gltf");
-    std::fs::write(
-        &p,
+    let (_dir, p) = folder_with(
+        "ext.gltf",
         gltf_json(
             r#"[{"mesh":0}]"#,
             "[0]",
             r#","extensionsUsed":["KHR_texture_transform","KHR_materials_sheen"]"#,
         ),
-    )
-    .unwrap();
+    );
     let m = load_model(&p).unwrap();
     let w = warnings_with(&m.warnings, "arbor ignores");
     assert_eq!(w.len(), 1, "{:?}", m.warnings);
@@ -819,8 +818,9 @@ fn gltf_ignored_extensions_are_warned_about() {
 /// NotSupported, Error) as stored; no warning calls the extension ignored.
 #[test]
 fn gltf_texture_transforms_are_applied() {
-    let Some(dir) = models() else { return };
-    let m = load_model(&dir.join("glTF2/textureTransform/TextureTransformTest.gltf")).unwrap();
+    let Some(m) = assimp_model("glTF2/textureTransform/TextureTransformTest.gltf") else {
+        return;
+    };
     assert!(
         !m.warnings
             .iter()
@@ -864,10 +864,8 @@ fn gltf_material_json(material: &str, nodes: &str, extra: &str) -> String {
 /// them with the model.
 #[test]
 fn gltf_punctual_lights_replace_the_automatic_ones() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = dir.path().join("lights.gltf");
-    std::fs::write(
-        &p,
+    let (dir, p) = folder_with(
+        "lights.gltf",
         gltf_material_json(
             "{}",
             r#"[{"mesh":0},{"children":[2,3],"translation":[0,0,4]},
@@ -877,8 +875,7 @@ fn gltf_punctual_lights_replace_the_automatic_ones() {
                 {"type":"spot","intensity":31.4159265,"spot":{"outerConeAngle":0.5}},
                 {"type":"directional","color":[1,0.5,0.25],"intensity":3.14159265}]}}"#,
         ),
-    )
-    .unwrap();
+    );
     let (scene, model) = load_model_scene(&p).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(scene.lights, model.lights);
     let [Light::Spot {
@@ -1032,13 +1029,10 @@ fn gltf_vertex_colours_multiply_the_base_colour() {
 /// the OBJ file.
 #[test]
 fn mtl_ignored_features_are_named_once() {
-    let dir = tempfile::tempdir().unwrap();
-    let obj = dir.path().join("b.obj");
-    std::fs::write(
-        &obj,
+    let (dir, obj) = folder_with(
+        "b.obj",
         "mtllib b.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\nusemtl b\nf 1 3 2\n",
-    )
-    .unwrap();
+    );
     std::fs::write(
         dir.path().join("b.mtl"),
         "newmtl a\nKd 1 0 0\nmap_Bump n.png\nillum 9\nnewmtl b\nKd 0 1 0\nbump n.png\nKe 1 1 1\n",

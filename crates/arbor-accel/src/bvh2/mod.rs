@@ -631,6 +631,7 @@ mod tests {
     use super::*;
     use crate::counters::{NoCounters, RayCounts};
     use crate::list::List;
+    use crate::test_meshes::offered;
     use crate::triangle::mesh::TriangleMesh;
 
     fn grid_mesh(n: usize) -> TriangleMesh {
@@ -766,22 +767,13 @@ mod tests {
             let r = Ray::new(Vec3::ZERO, Vec3::X, 0.0, 1.0);
             assert!(!e.occluded(&r, &mut NoCounters, |_, _| true));
             let o = Bvh::build(&odd, b, &BvhParams::default());
-            let mut seen = Vec::new();
             let r = Ray::new(Vec3::ZERO, Vec3::ONE, 0.0, f32::INFINITY);
-            o.closest(&r, &mut NoCounters, |p, _| {
-                seen.push(p);
-                None
-            });
+            let mut seen = offered(&o, &r);
             seen.sort();
             assert_eq!(seen, vec![1, 2, 3, 4, 5], "{b:?}");
             let s = Bvh::build(&same, b, &BvhParams::default());
             assert!(s.stats().max_depth <= FORCE_MEDIAN_DEPTH + 32);
-            let mut n = 0;
-            s.closest(&r, &mut NoCounters, |_, _| {
-                n += 1;
-                None
-            });
-            assert_eq!(n, 100);
+            assert_eq!(offered(&s, &r).len(), 100);
         }
     }
 

@@ -573,12 +573,7 @@ mod tests {
         let mut t = Vec::new();
         for i in 0..300u32 {
             let f = i as f32;
-            let c = Vec3::new(
-                (f * 0.618).fract(),
-                (f * 0.414).fract(),
-                (f * 0.732).fract(),
-            ) * 8.0
-                - 2.0;
+            let c = crate::test_meshes::scattered(i) * 8.0 - 2.0;
             let s = 0.2 + 2.0 * (f * 0.37).fract();
             let (a, b) = if i % 7 == 0 {
                 // Flat in z, on a shared plane.
@@ -645,6 +640,15 @@ mod tests {
         descend(m, a, levels - 1, params, check);
     }
 
+    /// [`descend`] from `m`'s root with the default parameters.
+    fn descend_from_root(
+        m: &TriangleMesh,
+        levels: usize,
+        check: &mut dyn FnMut(&BuildNode, &BuildNode),
+    ) {
+        descend(m, root(m), levels, &KdParams::default(), check);
+    }
+
     #[test]
     fn event_keys_order_like_positions_then_kinds() {
         let ps = [-3.0f32, -1e-30, -0.0, 0.0, 1e-30, 2.0, f32::MAX];
@@ -670,9 +674,8 @@ mod tests {
     #[test]
     fn splitting_keeps_event_lists_sorted_and_exact() {
         let m = mesh();
-        let params = KdParams::default();
         let mut nodes = 0;
-        descend(&m, root(&m), 6, &params, &mut |_, child| {
+        descend_from_root(&m, 6, &mut |_, child| {
             nodes += 1;
             for axis in 0..3 {
                 let ev = &child.events[axis];
@@ -737,9 +740,8 @@ mod tests {
     #[test]
     fn clipped_boxes_contain_the_triangle_inside_the_child() {
         let m = mesh();
-        let params = KdParams::default();
         let mut checked = 0;
-        descend(&m, root(&m), 7, &params, &mut |_, child| {
+        descend_from_root(&m, 7, &mut |_, child| {
             let present: Vec<u32> = child.refs.iter().map(|r| r.0).collect();
             for (id, b) in &child.refs {
                 assert!(child.bounds.contains_box(b), "box leaves the node");

@@ -269,7 +269,7 @@ mod tests {
     use crate::counters::NoCounters;
     use crate::list::List;
     use crate::ray::Ray;
-    use crate::test_meshes::assert_agrees_with_list;
+    use crate::test_meshes::{assert_agrees_with_list, offered};
     use crate::triangle::mesh::TriangleMesh;
     use glam::Vec3;
 
@@ -316,12 +316,7 @@ mod tests {
         assert!(!t.occluded(&r, &mut NoCounters, |_, _| true));
         let same = vec![Aabb::new(Vec3::ZERO, Vec3::ONE); 50];
         let t = KdTree::build(&same, &KdParams::default());
-        let mut n = 0;
-        t.closest(&r, &mut NoCounters, |_, _| {
-            n += 1;
-            None
-        });
-        assert_eq!(n, 50);
+        assert_eq!(offered(&t, &r).len(), 50);
         // Flat boxes in one plane, and a ray inside that plane.
         let flat: Vec<Aabb> = (0..40)
             .map(|i| {
@@ -331,11 +326,6 @@ mod tests {
             .collect();
         let t = KdTree::build(&flat, &KdParams::default());
         let r = Ray::new(Vec3::new(-1.0, 0.5, 0.0), Vec3::X, 0.0, f32::INFINITY);
-        let mut n = 0;
-        t.closest(&r, &mut NoCounters, |_, _| {
-            n += 1;
-            None
-        });
-        assert_eq!(n, 40);
+        assert_eq!(offered(&t, &r).len(), 40);
     }
 }

@@ -50,6 +50,16 @@ impl Format {
         }
     }
 
+    /// The error for a file of this format at `path` where another kind
+    /// was wanted: `a .EXT file IS; expected EXPECTED`, the one wording of
+    /// every reader's refusal.
+    pub(crate) fn refused(self, path: &Path, is: &str, expected: &str) -> LoadError {
+        LoadError::file(
+            path,
+            format!("a .{} file {is}; expected {expected}", self.extension()),
+        )
+    }
+
     /// The format `path`'s extension names (any case), or an error naming the
     /// file, its extension and every extension arbor reads.
     pub fn from_path(path: &Path) -> Result<Format, LoadError> {

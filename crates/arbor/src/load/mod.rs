@@ -94,13 +94,10 @@ pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
     match Format::from_path(path)? {
         Format::Gltf | Format::Glb => placed::placed_mesh(&gltf::load(path)?.surfaces, path),
         f if f.is_mesh() => Ok(load_mesh(path, ObjRule::Fan)?.mesh),
-        other => Err(LoadError::file(
+        other => Err(other.refused(
             path,
-            format!(
-                "a .{} file is not a mesh for ray casting; expected a {} file",
-                other.extension(),
-                Format::listed(Format::is_ray_mesh)
-            ),
+            "is not a mesh for ray casting",
+            &format!("a {} file", Format::listed(Format::is_ray_mesh)),
         )),
     }
 }
@@ -109,13 +106,7 @@ pub fn load_ray_mesh(path: &Path) -> Result<MeshData, LoadError> {
 pub fn load_cornell_scene(path: &Path) -> Result<LoadedScene, LoadError> {
     match Format::from_path(path)? {
         Format::Xml => xml::load_scene(path),
-        other => Err(LoadError::file(
-            path,
-            format!(
-                "a .{} file is not a scene; expected a Cornell .xml scene",
-                other.extension()
-            ),
-        )),
+        other => Err(other.refused(path, "is not a scene", "a Cornell .xml scene")),
     }
 }
 
@@ -138,11 +129,11 @@ pub fn load_scene_with(path: &Path, options: &ModelOptions) -> Result<LoadedScen
             })
         }
         Format::Xml => xml::load_scene(path),
-        other => Err(LoadError::file(
+        other => Err(other.refused(
             path,
-            format!(
-                "a .{} file is a mesh, not a scene; expected a Cornell .xml scene or a {} model",
-                other.extension(),
+            "is a mesh, not a scene",
+            &format!(
+                "a Cornell .xml scene or a {} model",
                 Format::listed(Format::is_model)
             ),
         )),

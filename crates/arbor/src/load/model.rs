@@ -97,14 +97,7 @@ fn read_model(path: &Path) -> Result<Model, LoadError> {
         Format::Ply => Ok(single_mesh(ply::load(path)?)),
         Format::Stl => Ok(single_mesh(z_up_to_y_up(stl::load(path)?))),
         Format::Gltf | Format::Glb => gltf::load(path),
-        other => Err(LoadError::file(
-            path,
-            format!(
-                "a .{} file is not a model; expected {}",
-                other.extension(),
-                Format::listed(Format::is_model)
-            ),
-        )),
+        other => Err(other.refused(path, "is not a model", &Format::listed(Format::is_model))),
     }
 }
 

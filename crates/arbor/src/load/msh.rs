@@ -489,88 +489,83 @@ mod tests {
         assert_eq!(m.positions[0].z, f32::MAX);
     }
 
+    /// Malformed files, each with the line its error names (where that is
+    /// pinned) and the words its message must contain (all of them).
     #[test]
-    fn empty_file() {
+    fn malformed_files_name_the_line_and_the_problem() {
+        let cases: &[(&str, Option<usize>, &[&str])] = &[
+            // An empty file.
+            ("", Some(1), &["vertex count"]),
+            // A missing triangle count.
+            ("3\n", Some(2), &["triangle count"]),
+            // A bad header.
+            ("three\n1\n", Some(1), &["'three'"]),
+            ("3\n-1\n", Some(2), &[]),
+            // Missing sections.
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\n",
+                Some(13),
+                &["'triangles'"],
+            ),
+            ("1\n1\ntriangles\n0\n0\n0\n", None, &["'vertices'"]),
+            // Not a number, not finite (rejected too), not an integer.
+            (
+                "3\n1\nvertices\n0\n0\nzero\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n2\n",
+                Some(6),
+                &["'zero'", "vertex coordinate"],
+            ),
+            (
+                "3\n1\nvertices\n0\n0\nnan\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n2\n",
+                Some(6),
+                &[],
+            ),
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1.5\n2\n",
+                Some(15),
+                &["integer"],
+            ),
+            // A truncated file.
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n",
+                Some(16),
+                &["truncated", "found 2"],
+            ),
+            // A section cut short by the next keyword.
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\ntriangles\n0\n1\n2\n",
+                Some(8),
+                &["after 4 of its 9"],
+            ),
+            // Indices out of range.
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n3\n2\n",
+                Some(15),
+                &["index 3", "3 vertices"],
+            ),
+            (
+                "3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n-1\n1\n2\n",
+                None,
+                &["index -1"],
+            ),
+            // A section given twice.
+            (
+                "1\n0\nvertices\n0\n0\n0\nvertices\n0\n0\n0\ntriangles\n",
+                Some(7),
+                &["second time"],
+            ),
+        ];
+        for &(text, line, words) in cases {
+            let e = err(text);
+            if let Some(line) = line {
+                assert_eq!(e.line, Some(line), "{text:?}: {e}");
+            }
+            for word in words {
+                assert!(e.message.contains(word), "{text:?}: {e}");
+            }
+        }
+        // The message is shown after the file's name and the line.
         let e = err("");
-        assert_eq!(e.line, Some(1));
-        assert!(e.message.contains("vertex count"), "{e}");
         assert_eq!(e.to_string(), format!("m.msh:1: {}", e.message));
-    }
-
-    #[test]
-    fn missing_triangle_count() {
-        let e = err("3\n");
-        assert_eq!(e.line, Some(2), "{e}");
-        assert!(e.message.contains("triangle count"), "{e}");
-    }
-
-    #[test]
-    fn bad_header() {
-        let e = err("three\n1\n");
-        assert_eq!(e.line, Some(1));
-        assert!(e.message.contains("'three'"), "{e}");
-        let e = err("3\n-1\n");
-        assert_eq!(e.line, Some(2));
-    }
-
-    #[test]
-    fn missing_sections() {
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\n");
-        assert!(e.message.contains("'triangles'"), "{e}");
-        assert_eq!(e.line, Some(13), "{e}");
-        let e = err("1\n1\ntriangles\n0\n0\n0\n");
-        assert!(e.message.contains("'vertices'"), "{e}");
-    }
-
-    #[test]
-    fn non_number() {
-        let e = err("3\n1\nvertices\n0\n0\nzero\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n2\n");
-        assert_eq!(e.line, Some(6));
-        assert!(
-            e.message.contains("'zero'") && e.message.contains("vertex coordinate"),
-            "{e}"
-        );
-        let e = err("3\n1\nvertices\n0\n0\nnan\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n2\n");
-        assert_eq!(e.line, Some(6), "non-finite numbers are rejected: {e}");
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1.5\n2\n");
-        assert_eq!(e.line, Some(15));
-        assert!(e.message.contains("integer"), "{e}");
-    }
-
-    #[test]
-    fn truncated_file() {
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n1\n");
-        assert!(
-            e.message.contains("truncated") && e.message.contains("found 2"),
-            "{e}"
-        );
-        assert_eq!(e.line, Some(16), "{e}");
-    }
-
-    #[test]
-    fn section_cut_short_by_next_keyword() {
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\ntriangles\n0\n1\n2\n");
-        assert_eq!(e.line, Some(8));
-        assert!(e.message.contains("after 4 of its 9"), "{e}");
-    }
-
-    #[test]
-    fn index_out_of_range() {
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n0\n3\n2\n");
-        assert_eq!(e.line, Some(15));
-        assert!(
-            e.message.contains("index 3") && e.message.contains("3 vertices"),
-            "{e}"
-        );
-        let e = err("3\n1\nvertices\n0\n0\n0\n1\n0\n0\n0\n1\n0\ntriangles\n-1\n1\n2\n");
-        assert!(e.message.contains("index -1"), "{e}");
-    }
-
-    #[test]
-    fn duplicate_section() {
-        let e = err("1\n0\nvertices\n0\n0\n0\nvertices\n0\n0\n0\ntriangles\n");
-        assert_eq!(e.line, Some(7));
-        assert!(e.message.contains("second time"), "{e}");
     }
 
     #[test]

@@ -462,9 +462,7 @@ impl<'a> Integrator<'a> {
                     intensity,
                 },
             ) => {
-                let to_light = *position - x;
-                let dist = to_light.length();
-                let l = to_light.normalize();
+                let (l, dist) = toward(*position, x);
                 (!shadowed(self, *position, stats)).then(|| (l, *intensity / (dist * dist)))
             }
             (
@@ -478,9 +476,7 @@ impl<'a> Integrator<'a> {
                 },
             ) => {
                 // Only models have spots: 2015's 1/r² in either variant.
-                let to_light = *position - x;
-                let dist = to_light.length();
-                let l = to_light.normalize();
+                let (l, dist) = toward(*position, x);
                 let falloff = spot_falloff(-l.dot(*direction), *cos_inner, *cos_outer);
                 (falloff > 0.0 && !shadowed(self, *position, stats))
                     .then(|| (l, *intensity * (falloff / (dist * dist))))
@@ -497,6 +493,13 @@ impl<'a> Integrator<'a> {
             }
         }
     }
+}
+
+/// The unit direction from `x` toward a light at `position`, and the
+/// distance to it.
+fn toward(position: DVec3, x: DVec3) -> (DVec3, f64) {
+    let to_light = position - x;
+    (to_light.normalize(), to_light.length())
 }
 
 fn texture_or(

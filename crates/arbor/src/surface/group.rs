@@ -15,3 +15,18 @@ pub struct Group {
     /// The members.
     pub children: Vec<Surface>,
 }
+
+impl Group {
+    /// Calls `visit` with each member in order and its matrix: `m`, the
+    /// enclosing groups' matrix, times this group's transform. Stops at the
+    /// first error, which it returns: how the flattening walks go down
+    /// through a group.
+    pub fn try_for_each_child<E>(
+        &self,
+        m: DMat4,
+        mut visit: impl FnMut(&Surface, DMat4) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let m = m * self.transform;
+        self.children.iter().try_for_each(|c| visit(c, m))
+    }
+}

@@ -208,6 +208,17 @@ impl<'a, 'input> Loader<'a, 'input> {
         }
     }
 
+    /// What `node`'s `ref` names, when it has one: an error when the name
+    /// is unknown or names another kind than `expected` (a
+    /// [`Named::kind`], one per variant), so that the caller's pattern of
+    /// that variant matches.
+    fn referenced_kind(&self, node: Node, expected: &str) -> Result<Option<Named>> {
+        match self.referenced(node)? {
+            Some(named) if named.kind() != expected => Err(self.wrong_kind(node, &named, expected)),
+            found => Ok(found),
+        }
+    }
+
     fn remember(&mut self, node: Node, value: Named) {
         if let Some(name) = node.attribute("name") {
             self.names.insert(name.to_string(), value);
@@ -229,11 +240,8 @@ impl<'a, 'input> Loader<'a, 'input> {
     /// The text of a value element (following `ref` to a stored value).
     fn text(&mut self, node: Node) -> Result<String> {
         self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Text(t) => Ok(t),
-                other => Err(self.wrong_kind(node, &other, "value")),
-            };
+        if let Some(Named::Text(t)) = self.referenced_kind(node, "value")? {
+            return Ok(t);
         }
         let mut text = String::new();
         for child in node.children() {
@@ -387,11 +395,8 @@ impl<'a, 'input> Loader<'a, 'input> {
 
     fn camera(&mut self, node: Node) -> Result<Camera> {
         self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Camera(c) => Ok(c),
-                other => Err(self.wrong_kind(node, &other, "camera")),
-            };
+        if let Some(Named::Camera(c)) = self.referenced_kind(node, "camera")? {
+            return Ok(c);
         }
         let mut cam = Camera::default_2010();
         if self.is2015() {
@@ -454,11 +459,8 @@ impl<'a, 'input> Loader<'a, 'input> {
 
     fn light(&mut self, node: Node) -> Result<Light> {
         self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Light(l) => Ok(l),
-                other => Err(self.wrong_kind(node, &other, "light")),
-            };
+        if let Some(Named::Light(l)) = self.referenced_kind(node, "light")? {
+            return Ok(l);
         }
         let directional = match (self.variant, node.attribute("type")) {
             (_, None) => false,
@@ -520,11 +522,8 @@ impl<'a, 'input> Loader<'a, 'input> {
 
     fn texture(&mut self, node: Node) -> Result<Arc<Texture>> {
         self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Texture(t) => Ok(t),
-                other => Err(self.wrong_kind(node, &other, "texture")),
-            };
+        if let Some(Named::Texture(t)) = self.referenced_kind(node, "texture")? {
+            return Ok(t);
         }
         let wrap = match node.attribute("type") {
             Some("ClampTexture") => Wrap::Clamp,

@@ -42,11 +42,8 @@ impl<'a, 'input> Loader<'a, 'input> {
     /// A `<shader>` (or a reference to one).
     pub(super) fn shader(&mut self, node: Node) -> Result<Arc<Shader>> {
         self.check_attributes(node);
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Shader(s) => Ok(s),
-                other => Err(self.wrong_kind(node, &other, "shader")),
-            };
+        if let Some(Named::Shader(s)) = self.referenced_kind(node, "shader")? {
+            return Ok(s);
         }
         let ty = self.shader_type(node)?;
         let p = self.shader_params(node, ty)?;

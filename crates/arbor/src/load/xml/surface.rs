@@ -23,11 +23,8 @@ impl<'a, 'input> Loader<'a, 'input> {
                 self.resolve(name, def)?;
             }
         }
-        if let Some(named) = self.referenced(node)? {
-            return match named {
-                Named::Surface(shared) => Ok(Surface::Instance(shared)),
-                other => Err(self.wrong_kind(node, &other, "surface")),
-            };
+        if let Some(Named::Surface(shared)) = self.referenced_kind(node, "surface")? {
+            return Ok(Surface::Instance(shared));
         }
         let mut types = vec!["Sphere", "Box", "Mesh", "Group"];
         if self.is2015() {
