@@ -58,6 +58,22 @@ fn ray(dir: &Path, (x, y): (u32, u32), extra: &[&str]) -> Value {
     read_json(&dir.join("r.json"))
 }
 
+/// `explain s.xml --instancing nested -o p.html` with `extra`: the page's
+/// document.
+fn nested_page(dir: &Path, extra: &[&str]) -> Value {
+    let args = [
+        "explain",
+        "s.xml",
+        "--quiet",
+        "--instancing",
+        "nested",
+        "-o",
+        "p.html",
+    ];
+    ok(dir, &[&args[..], extra].concat());
+    page_data(&dir.join("p.html"))
+}
+
 /// Checks one nested ray's path against itself and the flat explain of
 /// the same pixel; whether it hit.
 fn check_pixel(dir: &Path, pixel: (u32, u32), accel: &str, extra: &[&str]) -> bool {
@@ -129,21 +145,7 @@ fn a_rays_levels_and_hit_agree_with_the_tracer_through_rotations_and_scales() {
     let dir = case(&support::transformed_scene());
     // Pixels the page's picks say hit (and one that misses), spread out.
     let size = ["--size", "160x120"];
-    let page = [
-        &[
-            "explain",
-            "s.xml",
-            "--quiet",
-            "--instancing",
-            "nested",
-            "-o",
-            "p.html",
-        ][..],
-        &size,
-    ]
-    .concat();
-    ok(dir.path(), &page);
-    let d = page_data(&dir.path().join("p.html"));
+    let d = nested_page(dir.path(), &size);
     let rays = d["picks"]["rays"].as_array().unwrap();
     let pixel = |r: &Value| {
         (
@@ -200,19 +202,7 @@ fn the_placements_entered_are_what_stats_counts_for_that_ray() {
 #[test]
 fn a_page_shows_the_levels_the_graph_with_exact_counts_and_each_picks_path() {
     let dir = case(&support::transformed_scene());
-    ok(
-        dir.path(),
-        &[
-            "explain",
-            "s.xml",
-            "--quiet",
-            "--instancing",
-            "nested",
-            "-o",
-            "p.html",
-        ],
-    );
-    let d = page_data(&dir.path().join("p.html"));
+    let d = nested_page(dir.path(), &[]);
     assert_eq!(d["instancing"], "nested");
     assert_eq!(d["structures"], serde_json::json!([]));
     assert!(d.get("primitives").is_none());

@@ -25,6 +25,10 @@ if (nested) {
   };
 
   for (const id of ['view3d-panel', 'traversal-panel']) $(id).hidden = true;
+  // No heatmaps on a nested page (they count the flat structures).
+  for (const e of document.querySelectorAll('#picture-panel .image-controls')) e.hidden = true;
+  const graphTitle = $('graph-title').querySelector('.muted');
+  if (graphTitle) graphTitle.textContent = '— the DAG as loaded, each shared definition drawn once';
   for (const id of ['levels-panel', 'path-panel']) $(id).hidden = false;
 
   const counts = (data.scene_graph && data.scene_graph.counts) || {};
@@ -59,7 +63,7 @@ if (nested) {
         ? `the own geometry of ${levelName(l.parent)}` : `child ${l.child} of ${levelName(l.parent)}`;
       const what = l.geometry ? 'its primitives tested' : 'its placements';
       const tr = row([String(i + 1), String(l.depth), levelName(l.definition) + (l.geometry ? ' · geometry' : ''), through,
-        nodeName(l.graph_node), l.culled ? 'culled: misses its box before the closest hit so far' : `enters its box at t = ${fmt(l.t)}; ${what}`],
+        nodeName(l.graph_node), l.culled ? 'culled: misses its own box, or meets it only past the closest hit so far' : `enters its box at t = ${fmt(l.t)}; ${what}`],
       { 'data-depth': String(l.depth), 'data-definition': String(l.definition), 'data-on-path': String(l.on_hit_path) });
       if (l.on_hit_path) tr.classList.add('on-path');
       if (l.culled) tr.classList.add('culled');

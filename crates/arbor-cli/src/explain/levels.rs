@@ -147,11 +147,9 @@ pub(super) fn outputs(
     let ray = args
         .ray
         .map(|pixel| pixel_path(scene, &tracer, &names, pixel));
-    let page = if want_page {
-        Some(document(args, scene, &tracer, graph, &names, notes)?)
-    } else {
-        None
-    };
+    let page = want_page
+        .then(|| document(args, scene, &tracer, graph, &names, notes))
+        .transpose()?;
     Ok(Outputs { ray, page })
 }
 

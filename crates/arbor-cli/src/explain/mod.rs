@@ -224,18 +224,9 @@ fn flat_outputs(
     let ray = args
         .ray
         .map(|pixel| traversal::pixel_traversal(scene, &views, &mut inner, pixel, true));
-    let page = if want_page {
-        Some(document(
-            args,
-            scene,
-            &flat,
-            &views,
-            &mut inner,
-            pick_pixels,
-        )?)
-    } else {
-        None
-    };
+    let page = want_page
+        .then(|| document(args, scene, &flat, &views, &mut inner, pick_pixels))
+        .transpose()?;
     Ok(Outputs { ray, page })
 }
 
