@@ -14,81 +14,11 @@ fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
-/// A small mesh: a fan of `n` triangles around the origin, tilted so no
-/// face is edge-on to the camera.
-fn msh(n: usize) -> String {
-    let mut v = vec![0.0, 0.0, 0.0];
-    for k in 0..=n {
-        let a = k as f64 / n as f64 * 5.0;
-        v.extend([a.cos(), a.sin(), 0.3 * a.sin()]);
-    }
-    let t: Vec<String> = (0..n)
-        .flat_map(|k| [0, k + 1, k + 2])
-        .map(|i| i.to_string())
-        .collect();
-    let v: Vec<String> = v.iter().map(|x| format!("{x}")).collect();
-    format!(
-        "{}\n{n}\nvertices\n{}\ntriangles\n{}\n",
-        n + 2,
-        v.join("\n"),
-        t.join("\n")
-    )
-}
-
-/// Three levels of references with rotations and non-uniform scales at
-/// each, geometry beside the references at the inner levels, placed twice
-/// at the top beside a sphere; every level places its child 3 or 4 times.
-fn transformed_scene() -> String {
-    let place = |child: &str, i: usize, spread: f64| {
-        format!(
-            r#"<surface type="Group"><translate>{} {} {}</translate><rotate>{} {} {}</rotate><scale>{} {} {}</scale><surface ref="{child}"/></surface>"#,
-            spread * (i as f64 - 1.5),
-            0.3 * i as f64 - 0.4,
-            -spread * 0.4 * i as f64,
-            17 * i + 5,
-            31 * i,
-            -23 * i as i64 + 11,
-            0.6 + 0.15 * i as f64,
-            1.1 - 0.1 * i as f64,
-            0.8 + 0.05 * i as f64,
-        )
-    };
-    let level = |name: &str, child: &str, copies: usize, spread: f64, extra: &str| {
-        let parts: String = (0..copies).map(|i| place(child, i, spread)).collect();
-        format!(
-            r#"<surface type="Group" name="{name}"><rotate>0 10 0</rotate>{parts}{extra}</surface>"#
-        )
-    };
-    let ball = r#"<surface type="Sphere"><center>0.2 0.5 0</center><radius>0.3</radius><shader ref="red"/></surface>"#;
-    let defs = [
-        r#"<surface type="Mesh" name="l0"><shader ref="grey"/><data>m.msh</data></surface>"#
-            .to_string(),
-        level("l1", "l0", 3, 2.0, ball),
-        level("l2", "l1", 4, 5.0, ""),
-        level("l3", "l2", 3, 12.0, ball),
-    ]
-    .concat();
-    format!(
-        r#"<scene>
-<camera><viewPoint>0 6 30</viewPoint><viewDir>0 -0.2 -1</viewDir><projDistance>1</projDistance><viewWidth>1.2</viewWidth><viewHeight>0.9</viewHeight></camera>
-<image>64 48</image>
-<shader name="grey" type="Phong"><diffuseColor>0.7 0.7 0.7</diffuseColor><specularColor>0.3 0.3 0.3</specularColor><exponent>30</exponent></shader>
-<shader name="red" type="Lambertian"><diffuseColor>0.8 0.2 0.1</diffuseColor></shader>
-<light><position>10 20 30</position><intensity>1 1 1</intensity></light>
-<defs>{defs}</defs>
-<surface type="Group"><rotate>0 -20 5</rotate><scale>1 1.3 0.9</scale><surface ref="l3"/></surface>
-<surface type="Group"><translate>4 -3 -10</translate><rotate>10 40 0</rotate><surface ref="l3"/></surface>
-<surface type="Sphere"><center>0 -1 5</center><radius>1</radius><shader ref="grey"/></surface>
-</scene>
-"#
-    )
-}
-
 /// A temporary folder holding `s.xml` and `m.msh`.
 fn case(scene: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     fs::write(dir.path().join("s.xml"), scene).unwrap();
-    fs::write(dir.path().join("m.msh"), msh(12)).unwrap();
+    fs::write(dir.path().join("m.msh"), support::fan_msh(12)).unwrap();
     dir
 }
 
@@ -117,7 +47,7 @@ fn assert_all_identical(dir: &Path, scene: &str, extra: &[&str]) {
 
 #[test]
 fn flat_and_nested_write_the_same_bytes_through_rotations_and_scales() {
-    let dir = case(&transformed_scene());
+    let dir = case(&support::transformed_scene());
     assert_all_identical(dir.path(), "s.xml", &[]);
     // Every accelerator at every level, and more samples.
     for accel in ["list", "bvh-sah", "grid", "kdtree"] {
@@ -236,31 +166,14 @@ fn an_unknown_instancing_is_a_usage_error() {
     );
 }
 
-/// `--stats`' instance levels entered per camera ray, from its
-/// `rays camera ... levels/ray` line.
-fn camera_levels_per_ray(dir: &Path, extra: &[&str]) -> f64 {
-    let mut args = vec!["render", "s.xml", "-o", "out.png", "--stats"];
-    args.extend(extra);
-    let o = arbor(dir, &args);
-    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
-    let err = stderr(&o);
-    let line = err
-        .lines()
-        .find(|l| l.starts_with("rays camera"))
-        .unwrap_or_else(|| panic!("no camera line: {err}"));
-    let words: Vec<&str> = line.split_whitespace().collect();
-    let at = words.iter().position(|w| *w == "levels/ray").expect(line);
-    words[at - 1].parse().expect(line)
-}
-
 #[test]
 fn stats_count_the_instance_levels_a_ray_enters() {
-    let dir = case(&transformed_scene());
+    let dir = case(&support::transformed_scene());
     // Three levels of references: a camera ray that meets the field goes
     // through several of them, nested; flat enters one placement at most
     // per copy it meets.
-    let nested = camera_levels_per_ray(dir.path(), &["--instancing", "nested"]);
-    let flat = camera_levels_per_ray(dir.path(), &["--instancing", "flat"]);
+    let nested = support::camera_levels_per_ray(dir.path(), &["--instancing", "nested"]);
+    let flat = support::camera_levels_per_ray(dir.path(), &["--instancing", "flat"]);
     assert!(nested > 1.0, "nested: {nested}");
     assert!(flat > 0.0 && flat < nested, "flat {flat}, nested {nested}");
     // Nothing placed by reference: no level is ever entered.
@@ -269,5 +182,5 @@ fn stats_count_the_instance_levels_a_ray_enters() {
 <image>16 12</image><light><position>3 4 5</position><intensity>1 1 1</intensity></light>
 <surface type="Sphere"><center>0 0 0</center><radius>1</radius></surface></scene>"#,
     );
-    assert_eq!(camera_levels_per_ray(plain.path(), &[]), 0.0);
+    assert_eq!(support::camera_levels_per_ray(plain.path(), &[]), 0.0);
 }

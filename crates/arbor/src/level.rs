@@ -51,6 +51,9 @@ const PAD_SCALE: f64 = 1.0 / (1u64 << 19) as f64;
 
 /// Counters that can be split for a nested traversal and merged back.
 pub trait SplitCounters: Counters + Default {
+    /// Whether [`SplitCounters::reach_level`] is wanted where it takes work
+    /// to say (a geometry level's entry); `false` leaves that work out.
+    const RECORDS_LEVELS: bool = false;
     /// Adds `other`'s counts to these.
     fn merge(&mut self, other: Self);
     /// The counts that follow (on the split-off counters) are placement
@@ -62,6 +65,19 @@ pub trait SplitCounters: Counters + Default {
     /// `--stats`, [`crate::stats::RayWork`]).
     #[inline(always)]
     fn enter_level(&mut self) {}
+    /// The nested tracer reached a level: through `path` (the item taken
+    /// at each level from the world down), the level of definition
+    /// `definition` (`geometry`: that definition's own geometry rather than
+    /// its child placements), whose box the ray enters at `t`, or `None`
+    /// when it misses the box before the closest hit so far (culled). For
+    /// recorders ([`crate::nested::NestedRecord`]), which say where a ray
+    /// went; a no-op for the render's counters.
+    #[inline(always)]
+    fn reach_level(&mut self, _path: &[u32], _definition: u32, _geometry: bool, _t: Option<f64>) {}
+    /// The nested tracer found a hit at `t`, closer than any before, through
+    /// the items `path`; for recorders, as [`SplitCounters::reach_level`].
+    #[inline(always)]
+    fn closer_hit(&mut self, _path: &[u32], _t: f64) {}
 }
 
 impl SplitCounters for NoCounters {

@@ -45,12 +45,18 @@
 //! distance from the camera.
 
 mod build;
+mod inspect;
 mod instancing;
+mod record;
+mod sources;
 #[cfg(test)]
 mod tests;
 
 pub use build::build;
+pub use inspect::{ChildPlacement, DefinitionSummary};
 pub use instancing::{Instancing, Plan, AUTO_FLATTEN_BUDGET, AUTO_FLAT_AT_MOST};
+pub use record::{LevelReached, NestedRecord, RecordedHit};
+pub use sources::Sources;
 
 use arbor_accel::{Accel, Accelerator, NoCounters};
 use glam::{DAffine3, DMat4};
@@ -127,10 +133,15 @@ impl Path {
         self.len -= 1;
     }
 
+    /// The items, from the root.
+    fn items(&self) -> &[u32] {
+        &self.items[..self.len as usize]
+    }
+
     /// Whether a hit reached by `self` comes before one reached by `other`
     /// (neither is a prefix of the other: both end in geometry).
     fn before(&self, other: &Path) -> bool {
-        self.items[..self.len as usize] < other.items[..other.len as usize]
+        self.items() < other.items()
     }
 }
 
@@ -307,10 +318,11 @@ impl NestedTracer {
         let def = &self.definitions[d as usize];
         let local = frame.local(search.ray);
         let cull = search.cull();
-        let Some((ray32, t0)) = def
+        let entry = def
             .frame
-            .f32_ray(&local.with_interval(local.tmin, local.tmax.min(cull)))
-        else {
+            .f32_ray(&local.with_interval(local.tmin, local.tmax.min(cull)));
+        counters.reach_level(search.path.items(), d, false, entry.map(|e| e.1));
+        let Some((ray32, t0)) = entry else {
             return;
         };
         let first_child = def.first_child();
@@ -359,6 +371,13 @@ impl NestedTracer {
             .geometry
             .as_ref()
             .expect("geometry items have geometry");
+        if C::RECORDS_LEVELS {
+            // Where the ray enters the geometry's box, as `Level::closest`
+            // finds it; computed only for recorders.
+            let cut = local.with_interval(local.tmin, local.tmax.min(search.cull()));
+            let t = level.frame.f32_ray(&cut).map(|e| e.1);
+            counters.reach_level(search.path.items(), d, true, t);
+        }
         let Some((prim, candidate)) = level.closest(local, search.cull(), counters) else {
             return;
         };
@@ -368,6 +387,7 @@ impl NestedTracer {
                 return;
             }
         }
+        counters.closer_hit(search.path.items(), candidate.t);
         search.best = Some(Best {
             candidate,
             definition: d,

@@ -181,6 +181,8 @@ function pickPixel(x, y) {
     return;
   }
   state.pick = ray;
+  // levels.js follows a pick through the nested levels.
+  document.dispatchEvent(new CustomEvent('arbor-pick', { detail: ray }));
   const [sx, sy] = ray.pixel;
   status.dataset.x = sx;
   status.dataset.y = sy;
@@ -1013,7 +1015,8 @@ function drawSceneGraph() {
 
   const f = g.flattening || {};
   const box = $('flattening');
-  box.append(el('h3', { text: 'Flattening' }));
+  box.append(el('h3', { text: data.instancing === 'nested' ? 'Nesting' : 'Flattening' }));
+  if (g.counts) box.append(el('p', { class: 'graph-counts', text: `As placed: ${g.counts.placements} placements, ${g.counts.primitives} primitives (${g.counts.unique_primitives} stored once each).` }));
   if (f.baked !== undefined) box.append(el('p', { text: `${f.baked} surfaces baked into world space.` }));
   if (f.shared && f.shared.length) {
     box.append(el('p', { text: 'Kept shared (one copy, placed by its transforms):' }));

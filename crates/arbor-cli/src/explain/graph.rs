@@ -19,7 +19,24 @@ struct Graph {
     nodes: Vec<Value>,
     /// Definition node of each shared surface, by its address.
     definitions: HashMap<usize, usize>,
+    /// Instance node of each reference, by the address of its
+    /// `Surface::Instance` (each is drawn once: a definition's insides
+    /// are drawn once however often it is placed).
+    instances: HashMap<usize, usize>,
     left_out: usize,
+}
+
+/// The scene graph's nodes, and which node drew each shared surface and
+/// each reference (by address, as [`arbor::nested::Sources`] names them).
+pub struct GraphNodes {
+    /// `root`, `nodes` and `left_out` of the `scene_graph` object.
+    pub value: Value,
+    /// The root node (the scene).
+    pub root: usize,
+    /// Definition node of each shared surface drawn.
+    pub definitions: HashMap<usize, usize>,
+    /// Instance node of each reference drawn.
+    pub instances: HashMap<usize, usize>,
 }
 
 impl Graph {
@@ -63,6 +80,7 @@ impl Graph {
             }
             Surface::Instance(inner) => {
                 let id = self.push("instance", "instance".into(), Value::Null)?;
+                self.instances.insert(s as *const Surface as usize, id);
                 let key = Arc::as_ptr(inner) as usize;
                 let def = match self.definitions.get(&key) {
                     Some(&d) => Some(d),
@@ -108,12 +126,13 @@ fn rows(m: &DMat4) -> Value {
     json!([r(0), r(1), r(2)])
 }
 
-/// The `scene_graph` object of `scene`, which flattened into `flat`; notes
-/// what was cut.
-pub fn scene_graph(scene: &Scene, flat: &FlattenedScene, notes: &mut Vec<String>) -> Value {
+/// The nodes of `scene`'s graph (the DAG: each shared definition drawn
+/// once); notes what was cut.
+pub fn graph_nodes(scene: &Scene, notes: &mut Vec<String>) -> GraphNodes {
     let mut g = Graph {
         nodes: Vec::new(),
         definitions: HashMap::new(),
+        instances: HashMap::new(),
         left_out: 0,
     };
     let root = g
@@ -131,6 +150,34 @@ pub fn scene_graph(scene: &Scene, flat: &FlattenedScene, notes: &mut Vec<String>
             g.nodes.len() + g.left_out
         ));
     }
+    let mut value = json!({ "root": root, "nodes": g.nodes, "left_out": g.left_out });
+    if let Some(counts) = counts_json(scene) {
+        value["counts"] = counts;
+    }
+    GraphNodes {
+        value,
+        root,
+        definitions: g.definitions,
+        instances: g.instances,
+    }
+}
+
+/// The scene's placements and primitives as placed, counted over the DAG
+/// (as `arbor info` counts them), as decimal strings: they can pass 64
+/// bits. `None` when the census refuses the scene.
+fn counts_json(scene: &Scene) -> Option<Value> {
+    let c = arbor::census::Census::new(&scene.surfaces, scene.variant).ok()?;
+    Some(json!({
+        "placements": c.placements.to_string(),
+        "primitives": c.placed_primitives.to_string(),
+        "unique_primitives": c.unique_primitives.to_string(),
+    }))
+}
+
+/// The `scene_graph` object of `scene`, which flattened into `flat`; notes
+/// what was cut.
+pub fn scene_graph(scene: &Scene, flat: &FlattenedScene, notes: &mut Vec<String>) -> Value {
+    let mut value = graph_nodes(scene, notes).value;
     let mut placements = vec![0u64; flat.shared.len()];
     for p in &flat.placements {
         placements[p.geometry as usize] += 1;
@@ -161,12 +208,9 @@ pub fn scene_graph(scene: &Scene, flat: &FlattenedScene, notes: &mut Vec<String>
             flat.instanced_primitives()
         ));
     }
-    json!({
-        "root": root,
-        "nodes": g.nodes,
-        "left_out": g.left_out,
-        "flattening": { "baked": flat.world.len(), "shared": shared, "summary": summary },
-    })
+    value["flattening"] =
+        json!({ "baked": flat.world.len(), "shared": shared, "summary": summary });
+    value
 }
 
 #[cfg(test)]

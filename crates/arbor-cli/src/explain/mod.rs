@@ -6,6 +6,8 @@
 
 mod base64;
 mod graph;
+mod level_path;
+mod levels;
 mod page;
 mod picks;
 mod primitives;
@@ -16,8 +18,9 @@ mod volumes;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
+use arbor::nested::{Instancing, Plan};
 use arbor::scene::Scene;
-use arbor::tracer::BoundingVolumeKind;
+use arbor::tracer::{BoundingVolumeKind, Tracer};
 use arbor_accel::AccelKind;
 use clap::Args;
 use serde_json::{json, Value};
@@ -70,9 +73,16 @@ pub struct ExplainArgs {
     /// file has its own.
     #[arg(long, value_name = "auto", value_parser = ["auto"])]
     pub camera: Option<String>,
-    /// Most placements of shared (instanced) surfaces to accept.
+    /// Most placements of shared (instanced) surfaces to accept (flat
+    /// instancing only).
     #[arg(long, value_name = "N", default_value_t = arbor::flatten::DEFAULT_MAX_PLACEMENTS)]
     pub max_instances: u64,
+    /// How references are traced, as for `arbor render`: `flat` (one
+    /// placement per copy), `nested` (each shared definition its own
+    /// level, built once; the page shows the levels and each ray's way
+    /// through them) or `auto` (flat unless copies multiply).
+    #[arg(long, value_name = "flat|nested|auto", default_value_t = Instancing::Auto)]
+    pub instancing: Instancing,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -129,6 +139,7 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
         },
         max_placements: args.max_instances,
         bounding_volume: args.bvol,
+        instancing: args.instancing,
         ..Default::default()
     };
     let read_as = ReadAs::Render(&options);
@@ -147,38 +158,21 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
             .into());
         }
     }
-    let flat = crate::render::flatten(&scene, &options)?;
-    let mut accels: Vec<AccelKind> = Vec::new();
-    for &k in &args.accel {
-        if !accels.contains(&k) {
-            accels.push(k);
+    let out = match arbor::render::plan(&scene, &options) {
+        Plan::Flat => flat_outputs(args, &scene, &options, page.is_some())?,
+        Plan::Nested { flatten_budget } => {
+            levels::outputs(args, &scene, &options, flatten_budget, page.is_some())?
         }
-    }
-    let mut views: Vec<View> = accels
-        .iter()
-        .map(|&k| {
-            let options = arbor::render::RenderOptions {
-                accel: k,
-                ..options
-            };
-            View::new(k, arbor::render::build_tracer(flat.clone(), &options))
-        })
-        .collect();
-    // The page's node numbers depend on the picks; `--ray` uses the same.
-    let pick_pixels = picks::pick_pixels(&scene);
-    picks::name_visited_nodes(&scene, &mut views, &pick_pixels.1);
-    let mut inner = InnerLayouts::default();
+    };
     let mut staged = Vec::new();
-    if let (Some(path), Some(pixel)) = (&args.json, args.ray) {
-        let one = traversal::pixel_traversal(&scene, &views, &mut inner, pixel, true);
-        let text = serde_json::to_string_pretty(&one)? + "\n";
+    if let (Some(path), Some(one)) = (&args.json, &out.ray) {
+        let text = serde_json::to_string_pretty(one)? + "\n";
         staged.push(crate::output::stage(path, |f| {
             std::io::Write::write_all(f, text.as_bytes())
         })?);
     }
-    if let Some(path) = &page {
-        let data = document(args, &scene, &flat, &views, &mut inner, pick_pixels)?;
-        let html = page::page_html(&serde_json::to_string(&data)?);
+    if let (Some(path), Some(data)) = (&page, &out.page) {
+        let html = page::page_html(&serde_json::to_string(data)?);
         staged.push(crate::output::stage(path, |f| {
             std::io::Write::write_all(f, html.as_bytes())
         })?);
@@ -190,6 +184,50 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// What one run writes: the `--ray` traversal and the page's document.
+struct Outputs {
+    ray: Option<Value>,
+    page: Option<Value>,
+}
+
+/// The outputs of a flat plan: every `--accel` structure over the
+/// flattened scene.
+fn flat_outputs(
+    args: &ExplainArgs,
+    scene: &Scene,
+    options: &arbor::render::RenderOptions,
+    want_page: bool,
+) -> anyhow::Result<Outputs> {
+    let flat = crate::render::flatten(scene, options)?;
+    let mut accels: Vec<AccelKind> = Vec::new();
+    for &k in &args.accel {
+        if !accels.contains(&k) {
+            accels.push(k);
+        }
+    }
+    let mut views: Vec<View> = accels
+        .iter()
+        .map(|&k| {
+            let options = arbor::render::RenderOptions {
+                accel: k,
+                ..*options
+            };
+            View::new(k, arbor::render::build_tracer(flat.clone(), &options))
+        })
+        .collect();
+    // The page's node numbers depend on the picks; `--ray` uses the same.
+    let pick_pixels = picks::pick_pixels(scene);
+    picks::name_visited_nodes(scene, &mut views, &pick_pixels.1);
+    let mut inner = InnerLayouts::default();
+    let ray = args
+        .ray
+        .map(|pixel| traversal::pixel_traversal(scene, &views, &mut inner, pixel, true));
+    let page = want_page
+        .then(|| document(args, scene, &flat, &views, &mut inner, pick_pixels))
+        .transpose()?;
+    Ok(Outputs { ray, page })
 }
 
 /// The whole page document of docs/explain-data.md.
@@ -207,7 +245,7 @@ fn document(
     let progress = |n: u64| bar.inc(n);
     let mut notes = Vec::new();
 
-    let picture = render_png(scene, &views[0], &progress)?;
+    let picture = render_png(scene, &views[0].tracer, &progress)?;
     let heatmaps: Vec<Value> = views
         .iter()
         .map(|v| structures::heatmap_json(scene, v, &progress))
@@ -226,16 +264,11 @@ fn document(
     let bounding_volumes = views.first().map_or_else(Vec::new, |v| {
         volumes::bounding_volumes_json(&v.tracer, flat.world.len())
     });
-    let input = args
-        .input
-        .as_ref()
-        .map_or("built-in classroom".to_string(), |p| {
-            p.display().to_string()
-        });
     Ok(json!({
         "format": "arbor-explain",
         "version": 1,
-        "input": input,
+        "instancing": "flat",
+        "input": input_label(args),
         "notes": notes,
         "image": { "width": w, "height": h, "png_base64": picture },
         "camera": camera_json(scene),
@@ -247,14 +280,23 @@ fn document(
     }))
 }
 
-/// The picture as `arbor render` renders it, as base64 PNG.
+/// The input as the page names it.
+fn input_label(args: &ExplainArgs) -> String {
+    args.input
+        .as_ref()
+        .map_or("built-in classroom".to_string(), |p| {
+            p.display().to_string()
+        })
+}
+
+/// The picture as `arbor render` renders it through `tracer`, as base64 PNG.
 fn render_png(
     scene: &Scene,
-    view: &View,
+    tracer: &Tracer,
     progress: &(dyn Fn(u64) + Sync),
 ) -> anyhow::Result<String> {
     let cancel = AtomicBool::new(false);
-    let film = arbor::render::render(scene, &view.tracer, progress, &cancel)
+    let film = arbor::render::render(scene, tracer, progress, &cancel)
         .map_err(|_| anyhow::anyhow!("rendering the picture was interrupted"))?;
     let mut png = Vec::new();
     arbor::film::encode_png(

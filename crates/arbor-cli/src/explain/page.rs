@@ -15,6 +15,9 @@ const BODY: &str = include_str!("../../assets/explain/body.html");
 const LOADER: &str = include_str!("../../assets/explain/loader.js");
 /// The page's behaviour (an ES module importing `three`).
 const APP: &str = include_str!("../../assets/explain/app.js");
+/// The nested levels' panels (a module run before [`APP`], which tells it
+/// each pick).
+const LEVELS: &str = include_str!("../../assets/explain/levels.js");
 /// three.js, vendored by scripts/vendor-three.sh (unmodified).
 const THREE_CORE: &str = include_str!("../../assets/explain/three/three.core.js");
 /// The part of three.js that imports `./three.core.js`.
@@ -36,6 +39,7 @@ pub fn page_html(data_json: &str) -> String {
         STYLE.len()
             + BODY.len()
             + APP.len()
+            + LEVELS.len()
             + THREE_CORE.len()
             + three_module.len()
             + ORBIT_CONTROLS.len()
@@ -58,6 +62,7 @@ pub fn page_html(data_json: &str) -> String {
         (r#"id="three-orbit-src" type="text/plain""#, ORBIT_CONTROLS),
         (r#"id="three-license" type="text/plain""#, THREE_LICENSE),
         ("", LOADER),
+        (r#"type="module""#, LEVELS),
         (r#"type="module""#, APP),
     ] {
         push_script(&mut page, attrs, text);
@@ -104,6 +109,7 @@ mod tests {
     fn no_asset_can_end_or_reopen_its_script_element() {
         for (name, text) in [
             ("app.js", APP),
+            ("levels.js", LEVELS),
             ("loader.js", LOADER),
             ("three.core.js", THREE_CORE),
             ("three.module.js", THREE_MODULE),
@@ -121,7 +127,7 @@ mod tests {
     fn every_script_element_is_closed_once() {
         let page = page_html("{}");
         let opened = page.matches("<script").count();
-        assert_eq!(opened, 7);
+        assert_eq!(opened, 8);
         assert_eq!(page.matches("</script>").count(), opened);
     }
 
@@ -136,7 +142,7 @@ mod tests {
         assert!(page.contains(&format!("from {CORE_MAPPED}")));
         assert!(LOADER.contains(CORE_MAPPED.trim_matches('\'')));
         // No other relative import is left that a blob URL could not resolve.
-        for module in [THREE_CORE, ORBIT_CONTROLS, APP] {
+        for module in [THREE_CORE, ORBIT_CONTROLS, APP, LEVELS] {
             assert!(!module.contains("from './"));
             assert!(!module.contains("from \"./"));
         }

@@ -56,13 +56,24 @@ pub fn picks(
     scene: &Scene,
     views: &[View],
     inner: &mut InnerLayouts,
+    pixels: (u32, Vec<(u32, u32)>),
+    notes: &mut Vec<String>,
+) -> Picks {
+    let mut trace = |pixel| pixel_traversal(scene, views, inner, pixel, false);
+    traced_picks(pixels, &mut trace, notes)
+}
+
+/// The picks at `pixels` (step `stride`), each `trace(pixel)`, thinned by
+/// doubling the step until they fit the budget; notes the stride.
+pub fn traced_picks(
     (mut stride, pixels): (u32, Vec<(u32, u32)>),
+    trace: &mut dyn FnMut((u32, u32)) -> Value,
     notes: &mut Vec<String>,
 ) -> Picks {
     let mut rays: Vec<(u32, u32, Value, usize)> = pixels
         .into_iter()
         .map(|(x, y)| {
-            let t = pixel_traversal(scene, views, inner, (x, y), false);
+            let t = trace((x, y));
             let size = t.to_string().len();
             (x, y, t, size)
         })

@@ -297,3 +297,86 @@ fn each_level_flattens_its_children_within_its_budget() {
     }
     assert!(hits > 200, "{hits} hits");
 }
+
+/// The recorder sees what the tracer does: its hit is the tracer's (same
+/// `t`, bit for bit), its counts and levels entered are what `RayCounts`
+/// and `--stats` count, and the hit's path runs through levels it
+/// reached, each entered before the hit.
+#[test]
+fn the_record_follows_the_traversal_to_the_hit() {
+    let scene = dag(4, 3);
+    let nested = build(&scene, TracerOptions::default().accel, 1).unwrap();
+    let mut random = sequence(7);
+    let mut hits = 0;
+    for _ in 0..300 {
+        let o = (DVec3::new(random(), random(), random()) - 0.5) * 16.0;
+        let aim = (DVec3::new(random(), random(), random()) - 0.5) * 3.0;
+        let ray = Ray::new(o, aim - o, 0.0, f64::INFINITY);
+        let mut rec = NestedRecord::default();
+        let hit = nested.closest_counted(&ray, &mut rec);
+        let mut counts = arbor_accel::RayCounts::default();
+        nested.closest_counted(&ray, &mut counts);
+        assert_eq!(rec.counts, counts);
+        let mut work = crate::stats::RayWork::default();
+        nested.closest_counted(&ray, &mut work);
+        assert_eq!(rec.entered, work.levels);
+        assert_eq!(rec.levels[0].path, Vec::<u32>::new());
+        assert_eq!(rec.levels[0].definition, nested.root());
+        let entered = rec
+            .levels
+            .iter()
+            .filter(|l| !l.path.is_empty() && !l.geometry);
+        assert!(entered.count() as u64 <= rec.entered);
+        match (hit, rec.hit()) {
+            (None, None) => {}
+            (Some(h), Some(r)) => {
+                hits += 1;
+                assert_eq!(h.t.to_bits(), r.t.to_bits());
+                for depth in 0..=r.path.len() {
+                    let prefix = &r.path[..depth];
+                    let reached =
+                        |l: &LevelReached| l.path == prefix && l.t.is_some_and(|t| t <= r.t);
+                    assert!(rec.levels.iter().any(reached), "{prefix:?} {r:?}");
+                }
+            }
+            (h, r) => panic!("tracer {:?} record {r:?}", h.map(|h| h.t)),
+        }
+    }
+    assert!(hits > 30, "{hits} hits");
+}
+
+/// Every definition a child places and every child is traced back to the
+/// scene: children to references (`Surface::Instance`), a definition to
+/// one shared surface, the one its children's references point at; for
+/// nested throughout, partly and wholly flattened levels.
+#[test]
+fn sources_name_the_scene_surfaces_behind_the_levels() {
+    for seed in 0..4u64 {
+        let scene = dag(seed, 2 + (seed % 3) as usize);
+        let mut instances = std::collections::HashMap::new();
+        fn visit(s: &Surface, out: &mut std::collections::HashMap<usize, usize>) {
+            match s {
+                Surface::Group(g) => g.children.iter().for_each(|c| visit(c, out)),
+                Surface::Instance(inner) => {
+                    out.insert(s as *const Surface as usize, Arc::as_ptr(inner) as usize);
+                    visit(inner, out);
+                }
+                _ => {}
+            }
+        }
+        scene.surfaces.iter().for_each(|s| visit(s, &mut instances));
+        for flatten_budget in [1, 5, u64::MAX] {
+            let nested = build(&scene, AccelKind::BvhSah, flatten_budget).unwrap();
+            let sources = nested.sources(&scene).expect("sources");
+            assert_eq!(sources.definitions[nested.root() as usize], None);
+            for (d, children) in sources.children.iter().enumerate() {
+                let summary = nested.summary(d as u32);
+                for (c, at) in summary.children.iter().zip(children) {
+                    let target = sources.definitions[c.definition as usize];
+                    assert!(target.is_some(), "seed {seed} {flatten_budget}");
+                    assert_eq!(Some(instances[at]), target);
+                }
+            }
+        }
+    }
+}
