@@ -247,13 +247,18 @@ impl Builder {
         flattened: Option<&Flattened>,
         out: &mut Vec<Child>,
     ) -> Result<(), NestError> {
-        let definition = self.definition(s)?;
         if !flattened.is_none_or(|f| f.contains(&flatten::key(s))) {
+            let definition = self.definition(s)?;
             out.push(child(steps, definition, false));
             return Ok(());
         }
-        if self.definitions[definition as usize].geometry.is_some() {
-            out.push(child(steps, definition, true));
+        // Flattened: its own geometry (built once, if it has any), then its
+        // children's, with no level of its own.
+        if flatten::has_direct_geometry(s) {
+            let definition = self.definition(s)?;
+            if self.definitions[definition as usize].geometry.is_some() {
+                out.push(child(steps, definition, true));
+            }
         }
         self.collect(s, steps, None, out)
     }
