@@ -58,7 +58,7 @@ pub use instancing::{Instancing, Plan, AUTO_FLATTEN_BUDGET, AUTO_FLAT_AT_MOST};
 pub use record::{LevelReached, NestedRecord, RecordedHit};
 pub use sources::Sources;
 
-use arbor_accel::{Accel, Accelerator, NoCounters};
+use arbor_accel::{Accel, Accelerator};
 use glam::{DAffine3, DMat4};
 
 use crate::census::{CensusError, Location};
@@ -276,12 +276,9 @@ impl NestedTracer {
             .sum()
     }
 
-    /// The nearest hit on `ray`.
-    pub fn closest(&self, ray: &Ray) -> Option<Hit<'_>> {
-        self.closest_counted(ray, &mut NoCounters)
-    }
-
-    /// [`NestedTracer::closest`], counting traversal work (every level) into `counters`.
+    /// The nearest hit on `ray`, counting traversal work (every level)
+    /// into `counters` (`NoCounters` counts nothing; a
+    /// [`crate::tracer::Tracer::from_nested`] has the uncounted queries).
     pub fn closest_counted<C: SplitCounters>(
         &self,
         ray: &Ray,
@@ -296,12 +293,8 @@ impl NestedTracer {
         search.best.map(|b| self.hit_record(ray, b))
     }
 
-    /// Whether anything lies on `ray`.
-    pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_counted(ray, &mut NoCounters)
-    }
-
-    /// [`NestedTracer::occluded`], counting traversal work into `counters`.
+    /// Whether anything lies on `ray`, counting traversal work into
+    /// `counters`.
     pub fn occluded_counted<C: SplitCounters>(&self, ray: &Ray, counters: &mut C) -> bool {
         self.occluded_in(self.root, Frame64::ROOT, ray, counters)
     }

@@ -12,7 +12,7 @@ use crate::load::MeshData;
 use crate::scene::Scene;
 use crate::surface::{Group, MeshSurface, Sphere, Surface};
 use crate::tracer::{Tracer, TracerOptions};
-use arbor_accel::AccelKind;
+use arbor_accel::{AccelKind, NoCounters};
 
 /// SplitMix64 as a fixed sequence of numbers in [0, 1).
 fn sequence(seed: u64) -> impl FnMut() -> f64 {
@@ -101,7 +101,7 @@ fn flat(scene: &Scene) -> Tracer {
 /// for bit, and the same occlusion; whether it hit.
 fn same_answers(flat: &Tracer, nested: &NestedTracer, ray: &Ray, what: &str) -> bool {
     let a = flat.closest(ray);
-    let b = nested.closest(ray);
+    let b = nested.closest_counted(ray, &mut NoCounters);
     assert_eq!(a.is_some(), b.is_some(), "{what}");
     if let (Some(a), Some(b)) = (a, b) {
         assert_eq!(a.t.to_bits(), b.t.to_bits(), "{what}");
@@ -110,7 +110,8 @@ fn same_answers(flat: &Tracer, nested: &NestedTracer, ray: &Ray, what: &str) -> 
         assert_eq!(a.shadow_offset, b.shadow_offset, "{what}");
         assert!(std::ptr::eq(a.shader, b.shader), "{what}");
     }
-    assert_eq!(flat.occluded(ray), nested.occluded(ray), "{what}");
+    let occluded = nested.occluded_counted(ray, &mut NoCounters);
+    assert_eq!(flat.occluded(ray), occluded, "{what}");
     a.is_some()
 }
 
