@@ -208,13 +208,30 @@ fn render_options(args: &RenderArgs) -> RenderOptions {
         height: args.overrides.size.map(|(_, h)| h),
         samples: args.overrides.spp,
         accel: args.accel,
-        model: arbor::load::ModelOptions {
-            up: args.up,
-            auto_camera: args.camera.is_some(),
-        },
-        max_placements: args.max_instances,
-        bounding_volume: args.bvol,
-        instancing: args.instancing,
+        ..scene_options(
+            (args.up, args.camera.is_some()),
+            args.max_instances,
+            args.bvol,
+            args.instancing,
+        )
+    }
+}
+
+/// The render options of the flags `render` and `explain` share (how a
+/// model is placed and viewed, `--max-instances`, `--bvol`,
+/// `--instancing`), the rest the library's defaults.
+pub(crate) fn scene_options(
+    (up, auto_camera): (Option<arbor::load::Up>, bool),
+    max_placements: u64,
+    bounding_volume: Option<arbor::tracer::BoundingVolumeKind>,
+    instancing: Instancing,
+) -> RenderOptions {
+    RenderOptions {
+        model: arbor::load::ModelOptions { up, auto_camera },
+        max_placements,
+        bounding_volume,
+        instancing,
+        ..Default::default()
     }
 }
 

@@ -262,7 +262,9 @@ fn the_deep_field_at_nine_levels_gets_a_small_page_quickly() {
     let counts = &d["scene_graph"]["counts"];
     assert_eq!(counts["placements"], "1000000000000000000");
     assert_eq!(counts["primitives"], "12000000000000000000");
-    assert_eq!(d["nested"]["levels"].as_array().unwrap().len(), 10);
+    // The world and levels 9 to 2: auto's budget flattens each level 1
+    // (100 meshes) into the level 2 that places it 100 times.
+    assert_eq!(d["nested"]["levels"].as_array().unwrap().len(), 9);
     eprintln!("deep field L = 9 at 320x240: {took:?}, {bytes} bytes");
 }
 

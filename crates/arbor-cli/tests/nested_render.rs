@@ -158,12 +158,7 @@ fn a_reference_cycle_is_an_input_error() {
 fn an_unknown_instancing_is_a_usage_error() {
     let dir = case(&deep_scene(1, 2));
     let o = arbor(dir.path(), &["render", "s.xml", "--instancing", "deep"]);
-    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
-    assert!(
-        stderr(&o).contains("expected flat, nested or auto"),
-        "{}",
-        stderr(&o)
-    );
+    support::assert_exit_saying(&o, Some(2), "expected flat, nested or auto");
 }
 
 #[test]

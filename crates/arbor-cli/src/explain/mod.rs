@@ -132,16 +132,12 @@ fn explain(args: &ExplainArgs) -> anyhow::Result<()> {
     if let Some(j) = &args.json {
         crate::output::check_writable(j, "--json")?;
     }
-    let options = arbor::render::RenderOptions {
-        model: arbor::load::ModelOptions {
-            up: args.up,
-            auto_camera: args.camera.is_some(),
-        },
-        max_placements: args.max_instances,
-        bounding_volume: args.bvol,
-        instancing: args.instancing,
-        ..Default::default()
-    };
+    let options = crate::render::scene_options(
+        (args.up, args.camera.is_some()),
+        args.max_instances,
+        args.bvol,
+        args.instancing,
+    );
     let read_as = ReadAs::Render(&options);
     let mut scene = load_input(args.input.as_deref(), read_as, args.quiet)?.into_scene()?;
     let (w, h) = picture_size(&scene, args.size);

@@ -22,6 +22,17 @@ pub fn arbor_in(dir: &Path, args: &[&str]) -> Output {
         .expect("run arbor")
 }
 
+/// Asserts that `out` exited with `code` (`None`: any success) and that
+/// its standard error says `text`.
+pub fn assert_exit_saying(out: &Output, code: Option<i32>, text: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    match code {
+        None => assert!(out.status.success(), "{err}"),
+        Some(c) => assert_eq!(out.status.code(), Some(c), "{err}"),
+    }
+    assert!(err.contains(text), "expected {text:?} in: {err}");
+}
+
 /// A path as a command-line argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
