@@ -54,7 +54,10 @@ mod tests;
 
 pub use build::build;
 pub use inspect::{ChildPlacement, DefinitionSummary};
-pub use instancing::{Instancing, Plan, AUTO_FLATTEN_BUDGET, AUTO_FLAT_AT_MOST};
+pub use instancing::{
+    auto_flat_at_most, Instancing, Plan, AUTO_FLATTEN_BUDGET, AUTO_FLAT_AT_MOST,
+    AUTO_FLAT_FOR_RAYS_AT_MOST,
+};
 pub use record::{LevelReached, NestedRecord, RecordedHit};
 pub use sources::Sources;
 

@@ -3,12 +3,19 @@
 use crate::census::Census;
 use crate::scene::Scene;
 
-/// `auto`'s threshold: a scene placing at most this many copies of shared
-/// geometry is traced flat (today's two levels, exactly: pictures, stats
-/// and heatmaps unchanged); above it, nested. Chosen by measurement
-/// (docs/acceleration.md): on the deep field flat is faster at 10^4
-/// copies, nested faster and 18x smaller at 10^6.
+/// `auto` traces flat every scene placing at most this many copies of
+/// shared geometry (today's two levels, exactly: pictures, stats and
+/// heatmaps of every existing scene unchanged).
 pub const AUTO_FLAT_AT_MOST: u64 = 1 << 16;
+
+/// ... and, up to this many copies, every scene whose picture casts at
+/// least as many camera rays (pixels times samples) as it places copies;
+/// above both, nested. Chosen by measurement (docs/acceleration.md): flat
+/// costs a build per copy and about half the nested tracer's work a ray,
+/// so at 640x480 it is faster up to some 3 x 10^5 copies (10^5: 0.6 s
+/// against 0.8 s) and slower at 5 x 10^5 and beyond; the cap bounds flat's
+/// memory near 300 MB.
+pub const AUTO_FLAT_FOR_RAYS_AT_MOST: u64 = 1 << 20;
 
 /// `auto`'s budget for a nested scene: each level takes in up to this
 /// many children from flattened subtrees ([`crate::nested::build`]'s
@@ -27,8 +34,10 @@ pub enum Instancing {
     /// Every shared definition that places others its own level, built
     /// once.
     Nested,
-    /// Flat for a scene of at most [`AUTO_FLAT_AT_MOST`] copies, else
-    /// nested, flattening subtrees within [`AUTO_FLATTEN_BUDGET`] a level.
+    /// Flat for a scene of few copies ([`auto_flat_at_most`]: at most
+    /// [`AUTO_FLAT_AT_MOST`], or as many as its camera rays up to
+    /// [`AUTO_FLAT_FOR_RAYS_AT_MOST`]), else nested, flattening subtrees
+    /// within [`AUTO_FLATTEN_BUDGET`] a level.
     #[default]
     Auto,
 }
@@ -56,13 +65,21 @@ impl Instancing {
             Instancing::Flat => Plan::Flat,
             Instancing::Nested => nested(1),
             Instancing::Auto => match Census::new(&scene.surfaces, scene.variant) {
-                Ok(c) if c.placements > u128::from(AUTO_FLAT_AT_MOST) => {
+                Ok(c) if c.placements > u128::from(auto_flat_at_most(scene)) => {
                     nested(AUTO_FLATTEN_BUDGET)
                 }
                 _ => Plan::Flat,
             },
         }
     }
+}
+
+/// The most copies `auto` traces flat in `scene`: [`AUTO_FLAT_AT_MOST`],
+/// or its camera rays up to [`AUTO_FLAT_FOR_RAYS_AT_MOST`].
+pub fn auto_flat_at_most(scene: &Scene) -> u64 {
+    let sps = u64::from(scene.samples_per_side);
+    let rays = u64::from(scene.width) * u64::from(scene.height) * sps * sps;
+    AUTO_FLAT_AT_MOST.max(rays.min(AUTO_FLAT_FOR_RAYS_AT_MOST))
 }
 
 /// The words of `--instancing`.

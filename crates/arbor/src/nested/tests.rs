@@ -244,25 +244,67 @@ fn nesting_deeper_than_the_limit_is_refused() {
     );
 }
 
+/// A group of `n` placements of `of`, 2 apart along x.
+fn row(of: &Arc<Surface>, n: usize) -> Arc<Surface> {
+    let children = (0..n)
+        .map(|i| {
+            Surface::Group(Group {
+                transform: DMat4::from_translation(DVec3::new(2.0 * i as f64, 0.0, 0.0)),
+                children: vec![Surface::Instance(of.clone())],
+            })
+        })
+        .collect();
+    Arc::new(Surface::Group(Group {
+        transform: DMat4::IDENTITY,
+        children,
+    }))
+}
+
+/// `auto`'s first rule: flat while the picture casts a camera ray for
+/// each copy (up to the cap), or for few copies; else nested with the
+/// budget.
+#[test]
+fn auto_traces_flat_while_the_picture_has_a_ray_for_each_copy() {
+    let ball = Arc::new(Surface::Sphere(Sphere {
+        center: DVec3::ZERO,
+        radius: 0.8,
+        shader: default_shader(),
+    }));
+    let cube = |n| row(&row(&row(&ball, n), n), n);
+    let scene = |copies_per_side, (w, h), sps| {
+        let mut scene = crate::default_scene::classroom();
+        scene.surfaces = vec![Surface::Instance(cube(copies_per_side))];
+        (scene.width, scene.height, scene.samples_per_side) = (w, h, sps);
+        scene
+    };
+    let nested = Plan::Nested {
+        flatten_budget: AUTO_FLATTEN_BUDGET,
+    };
+    let auto = |s: &Scene| Instancing::Auto.plan(s);
+    // 50^3 = 125,000 copies: flat at 640x480 (307,200 rays), nested at 320x240.
+    assert_eq!(auto(&scene(50, (640, 480), 1)), Plan::Flat);
+    assert_eq!(auto(&scene(50, (320, 240), 1)), nested);
+    // Few copies: flat at any size.
+    assert_eq!(auto(&scene(40, (8, 8), 1)), Plan::Flat);
+    // 16 samples a pixel: four times the rays.
+    assert_eq!(auto(&scene(50, (320, 240), 4)), Plan::Flat);
+    // 128^3 = 2^21 copies: past the cap, nested however many rays.
+    assert_eq!(auto(&scene(128, (4096, 4096), 4)), nested);
+    let big = scene(128, (4096, 4096), 4);
+    assert_eq!(auto_flat_at_most(&big), AUTO_FLAT_FOR_RAYS_AT_MOST);
+    assert_eq!(
+        Instancing::Nested.plan(&big),
+        Plan::Nested { flatten_budget: 1 }
+    );
+    assert_eq!(Instancing::Flat.plan(&big), Plan::Flat);
+}
+
 /// The flatten budget's rule on a field of 2 x 10 x 10 balls: each level
 /// takes in child definitions while their cost (placements there times
 /// copies each) fits, and a level of geometry alone is always taken in.
 #[test]
 fn each_level_flattens_its_children_within_its_budget() {
-    let group = |of: &Arc<Surface>, n: usize| {
-        let children = (0..n)
-            .map(|i| {
-                Surface::Group(Group {
-                    transform: DMat4::from_translation(DVec3::new(2.0 * i as f64, 0.0, 0.0)),
-                    children: vec![Surface::Instance(of.clone())],
-                })
-            })
-            .collect();
-        Arc::new(Surface::Group(Group {
-            transform: DMat4::IDENTITY,
-            children,
-        }))
-    };
+    let group = row;
     let ball = Surface::Sphere(Sphere {
         center: DVec3::ZERO,
         radius: 0.8,
