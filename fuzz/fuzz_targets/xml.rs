@@ -16,7 +16,7 @@ fuzz_target!(init: one_thread::run_rayon_on_this_thread(), |data: &[u8]| {
         return;
     };
     // A folder that does not exist, so relative mesh names resolve to nothing.
-    let Ok(loaded) = arbor::xml::parse_scene(text, Path::new("/nonexistent-fuzz/scene.xml")) else {
+    let Ok(loaded) = arbor::load::xml::parse_scene(text, Path::new("/nonexistent-fuzz/scene.xml")) else {
         return;
     };
     let mut scene = loaded.scene;
