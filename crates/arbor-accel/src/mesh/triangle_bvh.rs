@@ -420,7 +420,11 @@ impl TriangleBvh {
                     counters.test();
                 }
                 // SAFETY: the CPU has AVX2.
-                let verdict = unsafe { pair::edge_stage8(ray, shear, [a, b], valid, false) };
+                // The behind-the-origin check in lanes pays for closest hits;
+                // for any-hit queries it cost more in the walk's registers
+                // than it saved (docs/perf-log/2026-12-07-behind-in-lanes.md).
+                let verdict =
+                    unsafe { pair::edge_stage8(ray, shear, [a, b], valid, false, !ANY_HIT) };
                 if let Some(verdict) = verdict {
                     let triangle = |k: usize| {
                         let p = if k < LANES { a } else { b };

@@ -22,7 +22,8 @@ use glam::{Vec3, Vec4};
 
 use crate::ray::Ray;
 use crate::triangle::watertight::{
-    certain_any_hit, hit_from_certain_edges, intersect_triangle_owned, intersect_triangle_sheared,
+    certain_any_hit, certainly_hit, hit_ahead, hit_from_certain_edges, intersect_triangle_owned,
+    intersect_triangle_sheared,
 };
 use crate::triangle::watertight::{RayShear, TriangleHit};
 
@@ -86,6 +87,14 @@ pub(crate) struct EdgeVerdict<const N: usize = LANES> {
     /// Lanes whose edge functions certainly put the ray inside: finish with
     /// [`hit_from_certain_edges`].
     inside: u32,
+    /// Lanes of `inside` whose plane certainly meets the ray's line behind
+    /// its origin, for a ray with `tmin >= 0`: missed, as the full test
+    /// finds first thing (see [`certainly_behind_lanes`]).
+    behind: u32,
+    /// Whether `behind` was worked out (by the AVX2 stage, for a ray with
+    /// `tmin >= 0`): then the other `inside` lanes are known to be ahead
+    /// and skip the full test's own check.
+    behind_known: bool,
 }
 
 /// Calls `$stage::<KX, KY, KZ>(args)` with the ray shear's axis
@@ -183,6 +192,8 @@ fn stage<const KX: usize, const KY: usize, const KZ: usize>(
         scale: scale.to_array(),
         miss: decided & mixed,
         inside: decided & !mixed,
+        behind: 0,
+        behind_known: false,
     }
 }
 
@@ -201,13 +212,15 @@ pub(crate) mod pair {
     use super::LANES;
     use super::{mixed_signs, EdgeVerdict, Tri4};
     use crate::ray::Ray;
-    use crate::triangle::watertight::RayShear;
+    use crate::triangle::watertight::{RayShear, TINY};
 
     /// The verdict for the triangles of `tris[0]` (lanes 0 to 3) and
     /// `tris[1]` (lanes 4 to 7) named by the bits of `valid`, or `None`
     /// when none of them is a candidate and not `all`: the common case,
     /// which then stores nothing. A leaf of up to four triangles passes its
-    /// packet twice with only the low lanes valid.
+    /// packet twice with only the low lanes valid. With `behind` (a
+    /// constant at each call) and `tmin >= 0`, lanes certainly behind the
+    /// origin are found here too and are no candidates.
     ///
     /// Not a `#[target_feature]` function (those cannot be forced inline,
     /// and a call passing the verdict back through memory cost more than
@@ -223,9 +236,10 @@ pub(crate) mod pair {
         tris: [&Tri4; 2],
         valid: u32,
         all: bool,
+        behind: bool,
     ) -> Option<EdgeVerdict<8>> {
         debug_assert!(valid != 0 && valid <= 0xff);
-        by_permutation!(s, stage(ray, s, tris, valid, all))
+        by_permutation!(s, stage(ray, s, tris, valid, all, behind))
     }
 
     /// [`edge_stage8`] as two four-lane verdicts, for comparing with
@@ -242,7 +256,7 @@ pub(crate) mod pair {
     ) -> [EdgeVerdict; 2] {
         debug_assert!((1..=LANES).contains(&count));
         let valid = 0xf | ((1u32 << count) - 1) << LANES;
-        let v = edge_stage8(ray, s, tris, valid, true).expect("all verdicts");
+        let v = edge_stage8(ray, s, tris, valid, true, true).expect("all verdicts");
         let half = |h: usize| {
             let part = |x: &[f32; 8]| [x[4 * h], x[4 * h + 1], x[4 * h + 2], x[4 * h + 3]];
             let bits = |m: u32| (m >> (LANES * h)) & 0xf;
@@ -253,6 +267,8 @@ pub(crate) mod pair {
                 scale: part(&v.scale),
                 miss: bits(v.miss),
                 inside: bits(v.inside),
+                behind: bits(v.behind),
+                behind_known: v.behind_known,
             }
         };
         [half(0), half(1)]
@@ -267,15 +283,16 @@ pub(crate) mod pair {
         [t0, t1]: [&Tri4; 2],
         valid: u32,
         all: bool,
+        behind: bool,
     ) -> Option<EdgeVerdict<8>> {
         // No closures here: a closure is compiled without AVX2 and would
         // call each intrinsic instead of inlining it; these helpers are
         // forced inline into the AVX2 traversal.
         let o = ray.origin.to_array();
         let (sx, sy) = (_mm256_set1_ps(s.sx), _mm256_set1_ps(s.sy));
-        let ((ax, ay), la) = vertex::<KX, KY, KZ>([t0, t1], 0, o, sx, sy);
-        let ((bx, by), lb) = vertex::<KX, KY, KZ>([t0, t1], 1, o, sx, sy);
-        let ((cx, cy), lc) = vertex::<KX, KY, KZ>([t0, t1], 2, o, sx, sy);
+        let ((ax, ay), la, az) = vertex::<KX, KY, KZ>([t0, t1], 0, o, sx, sy);
+        let ((bx, by), lb, bz) = vertex::<KX, KY, KZ>([t0, t1], 1, o, sx, sy);
+        let ((cx, cy), lc, cz) = vertex::<KX, KY, KZ>([t0, t1], 2, o, sx, sy);
         let u = cross(cx, by, cy, bx);
         let v = cross(ax, cy, ay, cx);
         let w = cross(bx, ay, by, ax);
@@ -301,6 +318,21 @@ pub(crate) mod pair {
         if !all && valid & !miss == 0 {
             return None;
         }
+        let inside = decided & !mixed;
+        // Rays leaving a surface meet their own triangle's plane just behind
+        // the origin, and the structures offer it to nearly every such ray:
+        // found out here for all lanes at once, so that such a leaf ends
+        // without a lane finished one at a time.
+        let behind_known = behind && ray.tmin >= 0.0;
+        let behind = if behind_known && inside != 0 {
+            let diff = [az, bz, cz];
+            inside & certainly_behind_lanes(s, diff, [u, v, w], scale)
+        } else {
+            0
+        };
+        if !all && valid & !miss & !behind == 0 {
+            return None;
+        }
         let row = |x: __m256| {
             let mut r = [0.0f32; 8];
             _mm256_storeu_ps(r.as_mut_ptr(), x);
@@ -312,12 +344,79 @@ pub(crate) mod pair {
             w: row(w),
             scale: row(scale),
             miss,
-            inside: decided & !mixed,
+            inside,
+            behind,
+            behind_known,
         })
     }
 
-    /// Vertex `j` of both packets: its sheared coordinates and the L1 norm
-    /// of its position relative to the origin.
+    /// [`crate::triangle::watertight::certainly_behind`] for eight lanes,
+    /// operation for operation (so each lane's answer is the scalar one):
+    /// the lanes whose plane certainly meets the ray's line behind the
+    /// origin, given each vertex's coordinate along the dominant axis
+    /// relative to the origin (`diff`), the edge functions and the scale.
+    /// Meaningful for lanes with certain, equal edge signs only.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline(always)]
+    unsafe fn certainly_behind_lanes(
+        s: &RayShear,
+        diff: [__m256; 3],
+        [u, v, w]: [__m256; 3],
+        scale: __m256,
+    ) -> u32 {
+        // No closures (see `stage`): each would be compiled without AVX2.
+        let sz = _mm256_set1_ps(s.sz);
+        let z = [
+            _mm256_mul_ps(diff[0], sz),
+            _mm256_mul_ps(diff[1], sz),
+            _mm256_mul_ps(diff[2], sz),
+        ];
+        let terms = [
+            _mm256_mul_ps(u, z[0]),
+            _mm256_mul_ps(v, z[1]),
+            _mm256_mul_ps(w, z[2]),
+        ];
+        let t_num = _mm256_add_ps(_mm256_add_ps(terms[0], terms[1]), terms[2]);
+        // `T` signed as `D`, which has the sign of `u`: negated where `u`
+        // is negative (a sign flip, as the scalar negation).
+        let sign = _mm256_set1_ps(-0.0);
+        let toward = _mm256_xor_ps(t_num, _mm256_and_ps(u, sign));
+        let (a, zs) = (sum_abs(terms), sum_abs(z));
+        let b = _mm256_mul_ps(
+            _mm256_mul_ps(
+                scale,
+                _mm256_mul_ps(scale, _mm256_set1_ps(1.0 + 1.0 / 1_048_576.0)),
+            ),
+            _mm256_set1_ps(1.0 / 262_144.0),
+        );
+        let e = _mm256_mul_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(a, _mm256_set1_ps(1.0 / 2_097_152.0)),
+                _mm256_mul_ps(b, zs),
+            ),
+            _mm256_set1_ps(1.0 + 1.0 / 1024.0),
+        );
+        let beyond = _mm256_cmp_ps::<_CMP_LT_OQ>(toward, _mm256_xor_ps(e, sign));
+        // `Numerator::far_from_underflow`, lane by lane.
+        let tiny = _mm256_set1_ps(TINY);
+        let mut normal =
+            _mm256_cmp_ps::<_CMP_GE_OQ>(scale, _mm256_set1_ps(1.0 / 1_099_511_627_776.0));
+        for i in 0..3 {
+            let exact = _mm256_cmp_ps::<_CMP_EQ_OQ>(diff[i], _mm256_setzero_ps());
+            let large = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(abs(z[i]), tiny),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(abs(terms[i]), tiny),
+            );
+            normal = _mm256_and_ps(normal, _mm256_or_ps(exact, large));
+        }
+        _mm256_movemask_ps(_mm256_and_ps(beyond, normal)) as u32
+    }
+
+    /// Vertex `j` of both packets: its sheared coordinates, the L1 norm of
+    /// its position relative to the origin, and its relative coordinate
+    /// along the dominant axis.
     #[inline(always)]
     unsafe fn vertex<const KX: usize, const KY: usize, const KZ: usize>(
         [t0, t1]: [&Tri4; 2],
@@ -325,7 +424,7 @@ pub(crate) mod pair {
         o: [f32; 3],
         sx: __m256,
         sy: __m256,
-    ) -> ((__m256, __m256), __m256) {
+    ) -> ((__m256, __m256), __m256, __m256) {
         let rel = |c: usize| {
             _mm256_sub_ps(
                 _mm256_loadu2_m128(t1.v[j][c].as_ptr(), t0.v[j][c].as_ptr()),
@@ -338,7 +437,13 @@ pub(crate) mod pair {
             _mm256_sub_ps(p[KY], _mm256_mul_ps(sy, p[KZ])),
         );
         let l1 = _mm256_add_ps(_mm256_add_ps(abs(p[0]), abs(p[1])), abs(p[2]));
-        (sheared, l1)
+        (sheared, l1, p[KZ])
+    }
+
+    /// `|x0| + |x1| + |x2|`, summed left to right.
+    #[inline(always)]
+    unsafe fn sum_abs(x: [__m256; 3]) -> __m256 {
+        _mm256_add_ps(_mm256_add_ps(abs(x[0]), abs(x[1])), abs(x[2]))
     }
 
     /// `p q - r t`.
@@ -371,7 +476,7 @@ impl<const N: usize> EdgeVerdict<N> {
     /// The lanes of `valid` the edge stage did not reject.
     #[inline(always)]
     pub(crate) fn candidates_of(&self, valid: u32) -> u32 {
-        valid & !self.miss
+        valid & !self.miss & !self.behind
     }
 
     /// For an any-hit query, what lane `k` (a candidate) is without the
@@ -391,6 +496,11 @@ impl<const N: usize> EdgeVerdict<N> {
             return None;
         }
         let edges = [self.u[k], self.v[k], self.w[k]];
+        if self.behind_known {
+            // Not behind (those lanes are no candidates): only the hit is
+            // left to decide.
+            return certainly_hit(ray, s, tri, edges, self.scale[k]).then_some(true);
+        }
         certain_any_hit(ray, s, tri, edges, self.scale[k])
     }
 
@@ -408,6 +518,10 @@ impl<const N: usize> EdgeVerdict<N> {
     ) -> Option<TriangleHit> {
         if self.inside & (1 << k) != 0 {
             let edges = [self.u[k], self.v[k], self.w[k]];
+            if self.behind_known {
+                // Checked in lanes: not behind the origin.
+                return hit_ahead(ray, s, p0, p1, p2, edges);
+            }
             hit_from_certain_edges(ray, s, p0, p1, p2, edges, self.scale[k])
         } else if OWNED {
             intersect_triangle_owned(ray, s, p0, p1, p2)
@@ -655,6 +769,69 @@ mod tests {
             }
         }
         assert!(candidates > 10_000, "only {candidates} candidates");
+    }
+
+    /// The AVX2 stage's behind-the-origin lanes are, lane for lane, the
+    /// scalar check's answers (`certainly_behind`), on triangles just
+    /// behind, on and just ahead of the origin (where shadow and bounce rays
+    /// start) and on hostile ones; a ray with `tmin < 0` gets none.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn behind_lanes_match_the_scalar_check() {
+        use crate::triangle::watertight::certainly_behind;
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut rng = Rng(17);
+        let (mut behind, mut ahead) = (0, 0);
+        for i in 0..60_000 {
+            let tmin = if i % 10 == 0 { -1.0 } else { 0.0 };
+            let ray = Ray::new(rng.vec(), rng.vec(), tmin, f32::INFINITY);
+            let s = RayShear::new(&ray);
+            let mut packet = || {
+                let tris: Vec<[Vec3; 3]> = (0..LANES)
+                    .map(|_| {
+                        let at =
+                            [-0.5, -1e-4, -1e-7, 0.0, 1e-7, 1e-4, 0.5][(rng.next() % 7) as usize];
+                        if rng.next() % 8 == 0 {
+                            return [rng.vec(), rng.vec(), rng.vec()];
+                        }
+                        let base = ray.origin + ray.dir * at;
+                        [0, 1, 2].map(|_| {
+                            let mut off = || ((rng.next() % 2001) as f32 / 1000.0 - 1.0) * 1e-2;
+                            base + Vec3::new(off(), off(), off())
+                        })
+                    })
+                    .collect();
+                Tri4::new(&tris, &[0, 1, 2, 3])
+            };
+            let (first, second) = (packet(), packet());
+            // SAFETY: checked above that the CPU has AVX2.
+            let verdicts = unsafe { pair::edge_stage_pair(&ray, &s, [&first, &second], LANES) };
+            for (v, p) in verdicts.iter().zip([&first, &second]) {
+                assert_eq!(v.behind_known, tmin >= 0.0);
+                assert_eq!(v.behind & !v.inside, 0);
+                for k in 0..LANES {
+                    let is_behind = v.behind & (1 << k) != 0;
+                    if v.inside & (1 << k) == 0 || !v.behind_known {
+                        assert!(!is_behind);
+                        continue;
+                    }
+                    let edges = [v.u[k], v.v[k], v.w[k]];
+                    let want = certainly_behind(&ray, &s, p.triangle(k), edges, v.scale[k]);
+                    assert_eq!(is_behind, want, "{ray:?} lane {k}");
+                    if want {
+                        behind += 1;
+                    } else {
+                        ahead += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            behind > 5_000 && ahead > 5_000,
+            "{behind} behind, {ahead} ahead"
+        );
     }
 
     /// The lanes leave an underflowing bound's signs to the full test, as

@@ -208,6 +208,21 @@ pub(crate) fn hit_from_certain_edges(
     if ray.tmin >= 0.0 && certainly_behind(ray, s, [p0, p1, p2], [u, v, w], scale) {
         return None;
     }
+    hit_ahead(ray, s, p0, p1, p2, [u, v, w])
+}
+
+/// [`hit_from_certain_edges`] for a triangle already known not to lie
+/// certainly behind the origin (or for a ray with `tmin < 0`): the rest of
+/// it, for lanes whose check was made in SIMD (`triangle/lanes.rs`).
+#[inline(always)]
+pub(crate) fn hit_ahead(
+    ray: &Ray,
+    s: &RayShear,
+    p0: Vec3,
+    p1: Vec3,
+    p2: Vec3,
+    [u, v, w]: [f32; 3],
+) -> Option<TriangleHit> {
     hit_from_weights(ray, s, p0, p1, p2, || {
         let det = u + v + w;
         (f64::from(u / det), f64::from(v / det), f64::from(w / det))
@@ -241,9 +256,17 @@ pub(crate) fn hit_from_certain_edges(
 /// edge function is within `B` of `u_i`. `E = (2^-21 A + B Z) (1 + 2^-10)` covers that and the
 /// roundings of `E` itself; `T` beyond `E` on the side opposite to `D`
 /// means `t < 0` exactly. A ray whose origin lies on the plane never gets
-/// past the bound, so no hit at `t = 0` is lost.
+/// past the bound, so no hit at `t = 0` is lost. The AVX2 leaf test makes
+/// the same check on eight lanes at once (`certainly_behind_lanes` in
+/// `triangle/lanes.rs`, the same operations in the same order).
 #[inline(always)]
-fn certainly_behind(ray: &Ray, s: &RayShear, p: [Vec3; 3], uvw: [f32; 3], scale: f32) -> bool {
+pub(crate) fn certainly_behind(
+    ray: &Ray,
+    s: &RayShear,
+    p: [Vec3; 3],
+    uvw: [f32; 3],
+    scale: f32,
+) -> bool {
     Numerator::new(ray, s, p, uvw).behind(scale)
 }
 
@@ -273,9 +296,23 @@ pub(crate) fn certain_any_hit(
     }
 }
 
+/// The second half of [`certain_any_hit`], for a triangle already known
+/// not to lie certainly behind the origin: whether it is certainly hit
+/// inside the interval.
+#[inline(always)]
+pub(crate) fn certainly_hit(
+    ray: &Ray,
+    s: &RayShear,
+    p: [Vec3; 3],
+    uvw: [f32; 3],
+    scale: f32,
+) -> bool {
+    certainly_hit_within(&Numerator::new(ray, s, p, uvw), ray, uvw, scale)
+}
+
 /// 2^-100: the smallest magnitude [`Numerator::far_from_underflow`] and
 /// [`certainly_hit_within`] accept as far from underflow.
-const TINY: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0;
+pub(crate) const TINY: f32 = 1.0 / 1_267_650_600_228_229_401_496_703_205_376.0;
 
 /// The distance's numerator `T` (see [`certainly_behind`]) and its parts.
 struct Numerator {
