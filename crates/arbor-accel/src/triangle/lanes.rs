@@ -793,7 +793,7 @@ mod tests {
                     .map(|_| {
                         let at =
                             [-0.5, -1e-4, -1e-7, 0.0, 1e-7, 1e-4, 0.5][(rng.next() % 7) as usize];
-                        if rng.next() % 8 == 0 {
+                        if rng.next().is_multiple_of(8) {
                             return [rng.vec(), rng.vec(), rng.vec()];
                         }
                         let base = ray.origin + ray.dir * at;
