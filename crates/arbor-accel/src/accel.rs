@@ -9,12 +9,17 @@ use crate::layout::Layout;
 use crate::list::List;
 use crate::primitives::{PrimitiveId, Primitives};
 use crate::ray::Ray;
+use crate::util::{offer_any, offer_closest};
 use crate::wide::WideBvh;
 
 /// What every acceleration structure answers: the candidates a ray may hit.
 ///
 /// The caller's closure does the exact primitive test, so the structure never
-/// needs to know what a primitive is.
+/// needs to know what a primitive is. A structure names the primitives it
+/// offers to every ray ([`Accelerator::unbounded`]: those without a finite
+/// box) and walks the others ([`Accelerator::closest_bounded`],
+/// [`Accelerator::occluded_bounded`]); [`Accelerator::closest`] and
+/// [`Accelerator::occluded`] offer the first, then walk.
 pub trait Accelerator: Send + Sync {
     /// Offers `hit` every primitive the ray may hit, nearest regions first.
     /// `hit(prim, ray)` returns `Some(t)` when `prim` is hit at `t` within
@@ -23,15 +28,45 @@ pub trait Accelerator: Send + Sync {
     /// nearest hit. Every primitive whose exact hit lies within the final
     /// interval is offered (each at most once for BVHs built without spatial
     /// splits, possibly more than once for spatial subdivision and spatial
-    /// splits: [`Accel::offers_repeats`]).
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
+    /// splits: [`Accel::offers_repeats`]). The unbounded primitives come
+    /// first, so the walk starts with `tmax` shrunk to their nearest hit.
+    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    where
+        C: Counters,
+        F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
+    {
+        let mut ray = *ray;
+        offer_closest(self.unbounded(), &mut ray, counters, &mut hit);
+        self.closest_bounded(ray, counters, &mut hit);
+    }
+
+    /// Whether any primitive is hit within `[ray.tmin, ray.tmax]`; stops at the
+    /// first `hit(prim, ray) == true` (the unbounded primitives first).
+    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    where
+        C: Counters,
+        F: FnMut(PrimitiveId, &Ray) -> bool,
+    {
+        offer_any(self.unbounded(), ray, counters, &mut hit)
+            || self.occluded_bounded(ray, counters, &mut hit)
+    }
+
+    /// The primitives offered to every ray before the walk: those without a
+    /// finite box (infinite or NaN bounds), which no walk can cull; empty for
+    /// a structure that walks every primitive (the list).
+    fn unbounded(&self) -> &[PrimitiveId];
+
+    /// [`Accelerator::closest`] over the primitives not in
+    /// [`Accelerator::unbounded`]: the structure's own walk, with `ray` as
+    /// the unbounded ones left it.
+    fn closest_bounded<C, F>(&self, ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>;
 
-    /// Whether any primitive is hit within `[ray.tmin, ray.tmax]`; stops at the
-    /// first `hit(prim, ray) == true`.
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
+    /// [`Accelerator::occluded`] over the primitives not in
+    /// [`Accelerator::unbounded`].
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool;
@@ -315,31 +350,41 @@ impl Accel {
 }
 
 impl Accelerator for Accel {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, hit: F)
+    fn unbounded(&self) -> &[PrimitiveId] {
+        match self {
+            Accel::List(a) => a.unbounded(),
+            Accel::Bvh(a) => a.unbounded(),
+            Accel::Grid(a) => a.unbounded(),
+            Accel::KdTree(a) => a.unbounded(),
+            Accel::Wide(a) => a.unbounded(),
+        }
+    }
+
+    fn closest_bounded<C, F>(&self, ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
         match self {
-            Accel::List(a) => a.closest(ray, counters, hit),
-            Accel::Bvh(a) => a.closest(ray, counters, hit),
-            Accel::Grid(a) => a.closest(ray, counters, hit),
-            Accel::KdTree(a) => a.closest(ray, counters, hit),
-            Accel::Wide(a) => a.closest(ray, counters, hit),
+            Accel::List(a) => a.closest_bounded(ray, counters, hit),
+            Accel::Bvh(a) => a.closest_bounded(ray, counters, hit),
+            Accel::Grid(a) => a.closest_bounded(ray, counters, hit),
+            Accel::KdTree(a) => a.closest_bounded(ray, counters, hit),
+            Accel::Wide(a) => a.closest_bounded(ray, counters, hit),
         }
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, hit: F) -> bool
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,
     {
         match self {
-            Accel::List(a) => a.occluded(ray, counters, hit),
-            Accel::Bvh(a) => a.occluded(ray, counters, hit),
-            Accel::Grid(a) => a.occluded(ray, counters, hit),
-            Accel::KdTree(a) => a.occluded(ray, counters, hit),
-            Accel::Wide(a) => a.occluded(ray, counters, hit),
+            Accel::List(a) => a.occluded_bounded(ray, counters, hit),
+            Accel::Bvh(a) => a.occluded_bounded(ray, counters, hit),
+            Accel::Grid(a) => a.occluded_bounded(ray, counters, hit),
+            Accel::KdTree(a) => a.occluded_bounded(ray, counters, hit),
+            Accel::Wide(a) => a.occluded_bounded(ray, counters, hit),
         }
     }
 

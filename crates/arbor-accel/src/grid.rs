@@ -12,7 +12,7 @@ use crate::counters::Counters;
 use crate::layout::{GridLayout, Layout};
 use crate::primitives::{PrimitiveId, Primitives};
 use crate::ray::Ray;
-use crate::util::{offer_any, offer_closest, prepare, Mailbox};
+use crate::util::{prepare, Mailbox};
 
 /// Grid build parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -414,35 +414,38 @@ fn shaped(ext: Vec3, cells: f64, params: &GridParams) -> [u32; 3] {
 }
 
 impl Accelerator for Grid {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    fn unbounded(&self) -> &[PrimitiveId] {
+        &self.unbounded
+    }
+
+    // Inlined into `Accel`'s dispatch: callgrind counts 1% more render
+    // instructions on a grid when it is a call.
+    #[inline]
+    fn closest_bounded<C, F>(&self, mut ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let walk_ray = ray;
         let mut mailbox = Mailbox::new();
         self.walk(&walk_ray, counters, |prims, exit, counters| {
-            mailbox.offer_closest(prims, &mut ray, counters, &mut hit);
+            mailbox.offer_closest(prims, &mut ray, counters, hit);
             // Every hit closer than the exit lies in a cell already visited
             // (up to the cell widening), so the nearest one is known.
             ray.tmax <= exit
         });
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    #[inline]
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,
     {
-        if offer_any(&self.unbounded, ray, counters, &mut hit) {
-            return true;
-        }
         let mut found = false;
         let mut mailbox = Mailbox::new();
         self.walk(ray, counters, |prims, exit, counters| {
-            found = mailbox.offer_any(prims, ray, counters, &mut hit);
+            found = mailbox.offer_any(prims, ray, counters, hit);
             found || ray.tmax <= exit
         });
         found

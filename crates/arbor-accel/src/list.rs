@@ -24,12 +24,16 @@ impl List {
 }
 
 impl Accelerator for List {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    /// None: the list tests every primitive, whatever its box.
+    fn unbounded(&self) -> &[PrimitiveId] {
+        &[]
+    }
+
+    fn closest_bounded<C, F>(&self, mut ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
         for prim in 0..self.count {
             count_test(counters, prim);
             if let Some(t) = hit(prim, &ray) {
@@ -38,7 +42,7 @@ impl Accelerator for List {
         }
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,

@@ -329,6 +329,13 @@ impl Bvh {
         leaves
     }
 
+    /// The primitives of leaf `n`, offered together.
+    #[inline(always)]
+    fn leaf_prims(&self, n: &BvhNode) -> &[u32] {
+        let first = n.offset as usize;
+        &self.prims[first..first + n.count as usize]
+    }
+
     /// The SAH cost `(Σ_interior A(n)·c_t + Σ_leaf A(l)·c_i·|l|) / A(root)`
     /// with surface areas `A`; `None` for an empty tree or a root without
     /// finite positive area.
@@ -413,13 +420,15 @@ fn skip_missed<C: Counters>(counters: &mut C, children: [(usize, bool); 2]) {
 }
 
 impl Accelerator for Bvh {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    fn unbounded(&self) -> &[PrimitiveId] {
+        &self.unbounded
+    }
+
+    fn closest_bounded<C, F>(&self, mut ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         let Some(root) = self.nodes.first() else {
             return;
         };
@@ -435,13 +444,7 @@ impl Accelerator for Bvh {
             count_node(counters, node as u32);
             let n = &self.nodes[node];
             if n.is_leaf() {
-                let first = n.offset as usize;
-                offer_closest(
-                    &self.prims[first..first + n.count as usize],
-                    &mut ray,
-                    counters,
-                    &mut hit,
-                );
+                offer_closest(self.leaf_prims(n), &mut ray, counters, hit);
             } else {
                 let (l, r) = (node + 1, n.offset as usize);
                 let wide = widen_up(ray.tmax);
@@ -487,14 +490,11 @@ impl Accelerator for Bvh {
         }
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,
     {
-        if offer_any(&self.unbounded, ray, counters, &mut hit) {
-            return true;
-        }
         let Some(root) = self.nodes.first() else {
             return false;
         };
@@ -511,13 +511,7 @@ impl Accelerator for Bvh {
             count_node(counters, node as u32);
             let n = &self.nodes[node];
             if n.is_leaf() {
-                let first = n.offset as usize;
-                if offer_any(
-                    &self.prims[first..first + n.count as usize],
-                    ray,
-                    counters,
-                    &mut hit,
-                ) {
+                if offer_any(self.leaf_prims(n), ray, counters, hit) {
                     return true;
                 }
             } else {

@@ -8,7 +8,7 @@ use crate::counters::Counters;
 use crate::counters::{count_node, skip_node};
 use crate::primitives::PrimitiveId;
 use crate::ray::Ray;
-use crate::util::{offer_any, offer_closest, widen_down, widen_up, Mailbox};
+use crate::util::{widen_down, widen_up, Mailbox};
 
 /// The smaller of `a` and `b`, or `a` when `b` is NaN: one `minss`
 /// (`f32::min` also handles a NaN `a`, which never occurs here, at the cost
@@ -149,37 +149,36 @@ impl KdTree {
 }
 
 impl Accelerator for KdTree {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    fn unbounded(&self) -> &[PrimitiveId] {
+        &self.unbounded
+    }
+
+    fn closest_bounded<C, F>(&self, mut ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         // A primitive reaches into several leaves; the mailbox tests it once.
         // A hit found in one leaf may lie beyond it, in a later leaf: that is
         // fine, the walk only skips nodes that begin beyond `tmax`, so it
         // stops exactly when no unvisited region can hold a closer hit.
         let mut mailbox = Mailbox::new();
         self.walk(&mut ray, counters, |prims, ray, counters| {
-            mailbox.offer_closest(prims, ray, counters, &mut hit);
+            mailbox.offer_closest(prims, ray, counters, hit);
             false
         });
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,
     {
-        if offer_any(&self.unbounded, ray, counters, &mut hit) {
-            return true;
-        }
         let mut found = false;
         let mut mailbox = Mailbox::new();
         let mut walk_ray = *ray;
         self.walk(&mut walk_ray, counters, |prims, r, counters| {
-            found = mailbox.offer_any(prims, r, counters, &mut hit);
+            found = mailbox.offer_any(prims, r, counters, hit);
             found
         });
         found

@@ -230,36 +230,35 @@ impl WideBvh {
 }
 
 impl Accelerator for WideBvh {
-    fn closest<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F)
+    fn unbounded(&self) -> &[PrimitiveId] {
+        &self.unbounded
+    }
+
+    fn closest_bounded<C, F>(&self, ray: Ray, counters: &mut C, hit: &mut F)
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> Option<f32>,
     {
-        let mut ray = *ray;
-        offer_closest(&self.unbounded, &mut ray, counters, &mut hit);
         self.closest_leaves(
             ray,
             counters,
             |first, count, ray, counters| {
-                offer_closest(&self.prims[first..first + count], ray, counters, &mut hit);
+                offer_closest(&self.prims[first..first + count], ray, counters, hit);
             },
             |_| {},
         );
     }
 
-    fn occluded<C, F>(&self, ray: &Ray, counters: &mut C, mut hit: F) -> bool
+    fn occluded_bounded<C, F>(&self, ray: &Ray, counters: &mut C, hit: &mut F) -> bool
     where
         C: Counters,
         F: FnMut(PrimitiveId, &Ray) -> bool,
     {
-        if offer_any(&self.unbounded, ray, counters, &mut hit) {
-            return true;
-        }
         self.occluded_leaves(
             ray,
             counters,
             |first, count, ray, counters| {
-                offer_any(&self.prims[first..first + count], ray, counters, &mut hit)
+                offer_any(&self.prims[first..first + count], ray, counters, hit)
             },
             |_| {},
         )
@@ -287,11 +286,6 @@ impl WideBvh {
     /// Whether a primitive sits in more than one leaf ([`Bvh::has_repeats`]).
     pub(crate) fn has_repeats(&self) -> bool {
         self.repeats
-    }
-
-    /// Primitives without a finite box, offered to every ray.
-    pub(crate) fn unbounded(&self) -> &[u32] {
-        &self.unbounded
     }
 
     /// Re-points every leaf of a tree from [`WideBvh::collapse`] (which has
