@@ -13,6 +13,9 @@ use arbor::scene::{Scene, Variant};
 use arbor::tracer::{Tracer, TracerOptions};
 use glam::DVec3;
 
+mod support;
+use support::hit_from_plus_x;
+
 fn load(xml: &str) -> Scene {
     parse_scene(xml, Path::new("test.xml"))
         .unwrap_or_else(|e| panic!("{e}"))
@@ -251,26 +254,12 @@ fn transformed_sphere_is_the_analytic_ellipsoid() {
         FlattenedScene::from_world(FlatGeometry::new(&s).unwrap()),
         &TracerOptions::default(),
     );
-    let hit = tracer
-        .closest(&Ray::new(
-            DVec3::new(10.0, 0.0, 0.0),
-            DVec3::NEG_X,
-            0.0,
-            f64::INFINITY,
-        ))
-        .unwrap();
+    let hit = hit_from_plus_x(&tracer, 0.0);
     assert!((hit.point.x - 2.0).abs() < 1e-12);
     assert!(close(hit.normal, DVec3::X, 1e-12));
     // Off-axis: normal from the inverse transpose, (x/4, y, z) normalised.
     let y = 0.6;
-    let hit = tracer
-        .closest(&Ray::new(
-            DVec3::new(10.0, y, 0.0),
-            DVec3::NEG_X,
-            0.0,
-            f64::INFINITY,
-        ))
-        .unwrap();
+    let hit = hit_from_plus_x(&tracer, y);
     let x = 2.0 * (1.0 - y * y).sqrt();
     assert!((hit.point.x - x).abs() < 1e-12);
     let expected = DVec3::new(x / 4.0, y, 0.0).normalize();

@@ -6,12 +6,14 @@ use std::sync::atomic::AtomicBool;
 
 use arbor::flatten::{FlatGeometry, FlattenError, FlattenedScene};
 use arbor::load::xml::parse_scene;
-use arbor::ray::Ray;
 use arbor::render::render;
 use arbor::scene::Scene;
 use arbor::tracer::{Tracer, TracerOptions};
 use arbor_accel::AccelKind;
 use glam::DVec3;
+
+mod support;
+use support::hit_from_plus_x;
 
 fn load(xml: &str) -> Scene {
     parse_scene(xml, Path::new("t.xml"))
@@ -154,14 +156,7 @@ fn mirrored_placement_keeps_outward_normals() {
         FlattenedScene::new(&scene, 100).unwrap(),
         &TracerOptions::default(),
     );
-    let hit = tracer
-        .closest(&Ray::new(
-            DVec3::new(10.0, 0.0, 0.0),
-            DVec3::NEG_X,
-            0.0,
-            f64::INFINITY,
-        ))
-        .unwrap();
+    let hit = hit_from_plus_x(&tracer, 0.0);
     assert!((hit.point.x - 4.0).abs() < 1e-12);
     assert!((hit.normal - DVec3::X).length() < 1e-12, "{:?}", hit.normal);
 }

@@ -174,9 +174,9 @@ impl<'a> Integrator<'a> {
                 refractive_index: eta,
             } => {
                 if is2015 {
-                    self.glass_2015(x, n, v, *eta, depth, stats)
+                    self.glass_2015(hit, v, *eta, depth, stats)
                 } else {
-                    self.glass_2010(x, n, v, *eta, depth, contrib, stats)
+                    self.glass_2010(hit, v, *eta, depth, contrib, stats)
                 }
             }
             Shader::RgbNormals => (n + DVec3::ONE) / 2.0,
@@ -323,17 +323,16 @@ impl<'a> Integrator<'a> {
 
     /// 2010 glass (spec §6.4): Schlick with the air-side cosine; the
     /// refracted ray keeps the depth.
-    #[allow(clippy::too_many_arguments)]
     fn glass_2010<S: RayStats>(
         &self,
-        x: DVec3,
-        n: DVec3,
+        hit: &Hit,
         v: DVec3,
         eta: f64,
         depth: u32,
         contrib: f64,
         stats: &mut S,
     ) -> DVec3 {
+        let (x, n) = (hit.point, hit.normal);
         let d = -v;
         let entering = d.dot(n) < 0.0;
         let (n1, n2, nn) = if entering {
@@ -369,13 +368,13 @@ impl<'a> Integrator<'a> {
     /// 2015 glass (spec §6.4), with total internal reflection as `R = 1`.
     fn glass_2015<S: RayStats>(
         &self,
-        x: DVec3,
-        n: DVec3,
+        hit: &Hit,
         v: DVec3,
         eta: f64,
         depth: u32,
         stats: &mut S,
     ) -> DVec3 {
+        let (x, n) = (hit.point, hit.normal);
         let cos = v.dot(n);
         let (eta, nn) = if cos >= 0.0 {
             (eta, n)
