@@ -424,106 +424,30 @@ fn farm_input_errors() {
     let d = dir.path();
     fs::create_dir(d.join("other")).unwrap();
     fs::copy(d.join("a.xml"), d.join("other/a.xml")).unwrap();
+    // Each command line as typed (words split at spaces).
     for (args, needle) in [
+        ("slurm a.xml --tiles 25 -o x.png --dry-run", "at most 24"),
+        ("slurm a.xml --tiles 0 -o x.png --dry-run", "at least 1"),
+        ("slurm a.xml --tiles 2 -o x --dry-run", ".png or .exr"),
+        ("slurm a.xml b.xml --tiles 2 -o x.png --dry-run", "folder"),
         (
-            vec![
-                "slurm",
-                "a.xml",
-                "--tiles",
-                "25",
-                "-o",
-                "x.png",
-                "--dry-run",
-            ],
-            "at most 24",
-        ),
-        (
-            vec!["slurm", "a.xml", "--tiles", "0", "-o", "x.png", "--dry-run"],
-            "at least 1",
-        ),
-        (
-            vec!["slurm", "a.xml", "--tiles", "2", "-o", "x", "--dry-run"],
-            ".png or .exr",
-        ),
-        (
-            vec![
-                "slurm",
-                "a.xml",
-                "b.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "x.png",
-                "--dry-run",
-            ],
-            "folder",
-        ),
-        (
-            vec![
-                "slurm",
-                "a.xml",
-                "other/a.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "x",
-                "--dry-run",
-            ],
+            "slurm a.xml other/a.xml --tiles 2 -o x --dry-run",
             "same name",
         ),
+        ("slurm none.xml --tiles 2 -o x.png --dry-run", "none.xml"),
+        ("status nowhere.png", "no farm render"),
         (
-            vec![
-                "slurm",
-                "none.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "x.png",
-                "--dry-run",
-            ],
-            "none.xml",
-        ),
-        (vec!["status", "nowhere.png"], "no farm render"),
-        (
-            vec![
-                "slurm",
-                "a.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "x.png",
-                "--sbatch-arg=mail",
-            ],
+            "slurm a.xml --tiles 2 -o x.png --sbatch-arg=mail",
             "expected an sbatch option",
         ),
+        ("slurm a.xml --tiles 2 -o x.png --account a\nb", "one line"),
         (
-            vec![
-                "slurm",
-                "a.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "x.png",
-                "--account",
-                "a\nb",
-            ],
-            "one line",
-        ),
-        (
-            vec![
-                "slurm",
-                "a.xml",
-                "--tiles",
-                "2",
-                "-o",
-                "a.xml/x.png",
-                "--dry-run",
-            ],
+            "slurm a.xml --tiles 2 -o a.xml/x.png --dry-run",
             "a.xml is not a folder",
         ),
     ] {
         let mut a = vec!["farm"];
-        a.extend(args.iter());
+        a.extend(args.split(' '));
         let o = arbor(d, &a, &[]);
         assert_eq!(o.status.code(), Some(2), "{a:?}: {}", text(&o));
         assert!(text(&o).contains(needle), "{a:?}: {}", text(&o));
