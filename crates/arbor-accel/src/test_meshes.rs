@@ -8,6 +8,33 @@ use crate::ray::Ray;
 use crate::triangle::mesh::TriangleMesh;
 use glam::Vec3;
 
+/// A bumpy `n` x `n` grid of triangles over the unit square.
+pub(crate) fn bumpy_grid(n: u32) -> TriangleMesh {
+    let (vertices, triangles) = bumpy_grid_parts(n);
+    TriangleMesh::new(vertices, triangles)
+}
+
+/// The vertices and triangles of [`bumpy_grid`]: height
+/// `0.1 sin(7x) cos(5y)`, two triangles per cell.
+pub(crate) fn bumpy_grid_parts(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut vertices = Vec::new();
+    for i in 0..=n {
+        for j in 0..=n {
+            let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
+            vertices.push(Vec3::new(x, y, 0.1 * ((7.0 * x).sin() * (5.0 * y).cos())));
+        }
+    }
+    let at = |i: u32, j: u32| i * (n + 1) + j;
+    let mut triangles = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    (vertices, triangles)
+}
+
 /// Point `i` of a sequence spread through the unit cube by irrational
 /// strides, which keep the points apart without a generator.
 pub(crate) fn scattered(i: u32) -> Vec3 {

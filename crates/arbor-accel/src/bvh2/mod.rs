@@ -625,29 +625,8 @@ mod tests {
     use super::*;
     use crate::counters::{NoCounters, RayCounts};
     use crate::list::List;
-    use crate::test_meshes::offered;
+    use crate::test_meshes::{bumpy_grid, offered};
     use crate::triangle::mesh::TriangleMesh;
-
-    fn grid_mesh(n: usize) -> TriangleMesh {
-        // A wavy height field of 2 n^2 triangles.
-        let mut v = Vec::new();
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
-                v.push(Vec3::new(x, y, 0.1 * (7.0 * x).sin() * (5.0 * y).cos()));
-            }
-        }
-        let mut t = Vec::new();
-        let w = (n + 1) as u32;
-        for j in 0..n as u32 {
-            for i in 0..n as u32 {
-                let a = j * w + i;
-                t.push([a, a + 1, a + w]);
-                t.push([a + 1, a + w + 1, a + w]);
-            }
-        }
-        TriangleMesh::new(v, t)
-    }
 
     fn closest<A: Accelerator>(a: &A, m: &TriangleMesh, r: &Ray) -> Option<(f32, u32)> {
         let mut best = None;
@@ -669,7 +648,7 @@ mod tests {
 
     #[test]
     fn every_builder_matches_list() {
-        let m = grid_mesh(24);
+        let m = bumpy_grid(24);
         let list = List::build(&m);
         for b in BUILDERS {
             let bvh = Bvh::build(&m, b, &BvhParams::default());
@@ -696,7 +675,7 @@ mod tests {
 
     #[test]
     fn sah_quality_and_culling() {
-        let m = grid_mesh(40);
+        let m = bumpy_grid(40);
         let p = BvhParams::default();
         let sweep = Bvh::build(&m, BvhBuilder::SweepSah, &p)
             .stats()
@@ -721,7 +700,7 @@ mod tests {
 
     #[test]
     fn parallel_build_is_deterministic() {
-        let m = grid_mesh(60);
+        let m = bumpy_grid(60);
         for b in BUILDERS {
             let seq = BvhParams {
                 parallel_threshold: usize::MAX,

@@ -681,29 +681,9 @@ impl WideBvh {
 mod tests {
     use super::*;
     use crate::counters::RayCounts;
-    use crate::triangle::mesh::TriangleMesh;
+    use crate::test_meshes::bumpy_grid;
     use crate::triangle::watertight::{intersect_triangle_sheared, RayShear};
     use glam::Vec3;
-
-    /// A tilted, bumpy `n` by `n` grid of triangle pairs over the unit square.
-    fn bumpy_grid(n: u32) -> TriangleMesh {
-        let mut vertices = Vec::new();
-        for i in 0..=n {
-            for j in 0..=n {
-                let (x, y) = (i as f32 / n as f32, j as f32 / n as f32);
-                vertices.push(Vec3::new(x, y, 0.2 * x + 0.05 * (9.0 * y).sin()));
-            }
-        }
-        let mut triangles = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                let at = |i: u32, j: u32| i * (n + 1) + j;
-                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-            }
-        }
-        TriangleMesh::new(vertices, triangles)
-    }
 
     /// The root-box test turns a ray away only when the root node's lane
     /// test would have entered none of its children, for rays from outside
