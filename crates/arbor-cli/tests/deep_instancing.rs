@@ -5,11 +5,12 @@
 
 use std::fs;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 use std::time::Instant;
 
 mod support;
 use support::arbor_in as arbor;
+use support::run_scene_script;
 
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -170,19 +171,10 @@ fn a_reference_cycle_is_an_input_error() {
 /// references to the bunny, 100^L bunnies of 10,000 triangles.
 #[test]
 fn deep_field_generator_writes_the_nested_field() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let Some(mesh) = arbor_test_data::test_b("bunny10k.msh") else {
-        return;
-    };
     let dir = tempfile::tempdir().unwrap();
-    let status = Command::new("python3")
-        .arg(root.join("scripts/deep_field.py"))
-        .args(["9", "-o", "deep.xml", "--mesh"])
-        .arg(&mesh)
-        .current_dir(dir.path())
-        .status()
-        .expect("python3");
-    assert!(status.success());
+    if !run_scene_script("deep_field.py", &["9", "-o", "deep.xml"], dir.path()) {
+        return;
+    }
     let out = arbor(dir.path(), &["info", "deep.xml"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let text = stdout(&out);

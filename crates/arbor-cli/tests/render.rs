@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 mod support;
 use support::arbor_in as arbor;
 use support::files_ending;
+use support::run_scene_script;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -433,29 +434,20 @@ fn info_reports_hierarchy_and_instancing() {
 /// scene that arbor loads, with the placement counts it promises.
 #[test]
 fn bunny_field_generator_makes_a_nested_instanced_scene() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-    let Some(mesh) = arbor_test_data::test_b("bunny10k.msh") else {
-        return;
-    };
     let dir = tempfile::tempdir().unwrap();
-    let status = Command::new("python3")
-        .arg(root.join("scripts/bunny_field.py"))
-        .args([
-            "--per-level",
-            "4",
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "-o",
-            "f.xml",
-            "--mesh",
-        ])
-        .arg(&mesh)
-        .current_dir(dir.path())
-        .status()
-        .expect("python3");
-    assert!(status.success());
+    let args = [
+        "--per-level",
+        "4",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "-o",
+        "f.xml",
+    ];
+    if !run_scene_script("bunny_field.py", &args, dir.path()) {
+        return;
+    }
     let out = arbor(dir.path(), &["info", "f.xml", "--depth", "2"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("placements  64 of shared geometry"), "{text}");

@@ -33,6 +33,26 @@ pub fn assert_exit_saying(out: &Output, code: Option<i32>, text: &str) {
     assert!(err.contains(text), "expected {text:?} in: {err}");
 }
 
+/// Runs the committed scene generator `scripts/{script}` with `args` and
+/// `--mesh` the TEST_B bunny, in `dir`; `false` when the shared test data is
+/// absent (the caller skips), panics when the script fails.
+pub fn run_scene_script(script: &str, args: &[&str], dir: &Path) -> bool {
+    let Some(mesh) = arbor_test_data::test_b("bunny10k.msh") else {
+        return false;
+    };
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let status = Command::new("python3")
+        .arg(root.join("scripts").join(script))
+        .args(args)
+        .arg("--mesh")
+        .arg(&mesh)
+        .current_dir(dir)
+        .status()
+        .expect("python3");
+    assert!(status.success(), "scripts/{script} failed");
+    true
+}
+
 /// A path as a command-line argument.
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("test paths are UTF-8")
